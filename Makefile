@@ -1,0 +1,58 @@
+# Volpath: `make test` and `make sunrise` set everything up on a fresh Debian 12 machine.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(VENV)/bin/pip
+# Debian packages the build needs (installed only when missing).
+DEBIAN_PACKAGES := g++ make python3-venv
+NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
+SPP ?= 16
+RES ?= 256
+JOBS ?= 2
+
+.PHONY: all setup test bench sunrise clean debian
+
+all: test
+
+debian:
+	@missing=""; for p in $(DEBIAN_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing Debian packages:$$missing"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	fi
+
+$(VENV)/.requirements: requirements.txt | debian
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q -r requirements.txt
+	touch $@
+
+# The native module, rebuilt incrementally (build/) whenever a C++ source changes.
+$(VENV)/.native: $(VENV)/.requirements $(NATIVE_SOURCES) $(shell find volpath -name '*.py')
+	$(PIP) install -q --no-build-isolation --no-deps .
+	touch $@
+
+setup: debian $(VENV)/.native
+
+test: setup
+	$(VENV)/bin/pytest -n $(JOBS) -q tests
+
+$(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
+	$(PIP) install -q -r requirements-bench.txt
+	@dpkg -s libllvm19 >/dev/null 2>&1 || { SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq libllvm19 || \
+	  echo "libllvm19 unavailable: Mitsuba's llvm variant will be skipped"; }
+	touch $@
+
+bench: setup $(VENV)/.bench
+	$(PY) bench/compare_mitsuba.py --out bench/RESULTS.md
+
+# Until the sunrise pipeline lands, renders the bundled test scene to out/.
+sunrise: setup
+	mkdir -p out
+	$(PY) -m volpath render scenes/test/cornell_fog.xml -o out/sunrise_placeholder.exr --spp $(SPP)
+
+clean:
+	rm -rf build out $(VENV)

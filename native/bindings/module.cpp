@@ -1,0 +1,316 @@
+// pybind11 glue for volpath._core: conversions and GIL handling only.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <chrono>
+#include <optional>
+#include <thread>
+
+#include "volpath/render.h"
+
+namespace py = pybind11;
+using namespace volpath;
+
+namespace {
+
+using Array3 = std::array<double, 3>;
+Vec3 vec(const Array3 &a) { return {a[0], a[1], a[2]}; }
+
+Transform transform(const py::array_t<double, py::array::c_style | py::array::forcecast> &m) {
+    if (m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4)
+        throw std::invalid_argument("expected a 4x4 matrix");
+    Transform t;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) t.m[i][j] = m.at(i, j);
+    return t;
+}
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// (z, y, x, c) float32 -> VoxelGrid, c in {1, 3}.
+VoxelGrid voxel_grid(const FloatArray &a) {
+    if (a.ndim() != 4 || (a.shape(3) != 1 && a.shape(3) != 3) || a.shape(0) < 1 || a.shape(1) < 1 ||
+        a.shape(2) < 1)
+        throw std::invalid_argument("expected a grid of shape (z, y, x, 1 or 3)");
+    VoxelGrid g;
+    g.res[0] = int(a.shape(2)), g.res[1] = int(a.shape(1)), g.res[2] = int(a.shape(0));
+    g.channels = int(a.shape(3));
+    g.data.assign(a.data(), a.data() + a.size());
+    return g;
+}
+
+std::vector<Vec3> points(const DoubleArray &a, const char *what) {
+    if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must have shape (n, 3)");
+    std::vector<Vec3> out(size_t(a.shape(0)));
+    for (size_t i = 0; i < out.size(); ++i) out[i] = {a.at(i, 0), a.at(i, 1), a.at(i, 2)};
+    return out;
+}
+
+PhaseFunction phase(double g) {
+    if (g == 0) return IsotropicPhase{};
+    return HenyeyGreenstein{g};
+}
+
+ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface) {
+    ShapeInfo info;
+    info.bsdf = bsdf;
+    info.interior = interior, info.exterior = exterior;
+    info.medium_interface = medium_interface;
+    return info;
+}
+
+py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
+                    int rr_depth, int max_null_collisions, py::object progress_cb) {
+    if (!scene.built) scene.build();
+    if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
+    if (spp < 1) throw std::invalid_argument("spp must be at least 1");
+    check_tracer_supports(scene, Tracer(tracer));
+    RenderSettings settings;
+    settings.spp = spp;
+    settings.seed = seed;
+    settings.threads = threads;
+    settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions};
+
+    py::array_t<float> image({scene.camera.height, scene.camera.width, 3});
+    float *pixels = image.mutable_data();
+    std::fill(pixels, pixels + image.size(), 0.0f);
+    RenderProgress progress;
+    progress.tiles_total = tile_count(scene.camera);
+    RenderStats stats;
+    std::exception_ptr failure;
+    std::atomic<bool> finished{false};
+    bool python_error = false;
+    {
+        py::gil_scoped_release release;
+        std::thread job([&] {
+            try {
+                stats = render(scene, settings, pixels, progress);
+            } catch (...) {
+                failure = std::current_exception();
+            }
+            finished = true;
+        });
+        // Poll for Ctrl-C and report progress while the workers run without the GIL.
+        while (!finished) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            py::gil_scoped_acquire acquire;
+            if (python_error) continue;
+            if (PyErr_CheckSignals() != 0) {
+                python_error = true;
+                progress.cancel = true;
+                continue;
+            }
+            if (!progress_cb.is_none()) {
+                try {
+                    const double done = double(progress.tiles_done.load()) / double(progress.tiles_total);
+                    py::object keep_going = progress_cb(done);
+                    if (!keep_going.is_none() && !keep_going.cast<bool>()) progress.cancel = true;
+                } catch (py::error_already_set &e) {
+                    e.restore();
+                    python_error = true;
+                    progress.cancel = true;
+                }
+            }
+        }
+        job.join();
+    }
+    if (python_error) throw py::error_already_set();
+    if (failure) std::rethrow_exception(failure);
+    if (!progress_cb.is_none() && !stats.cancelled) progress_cb(1.0);
+    py::dict info;
+    info["seconds"] = stats.seconds;
+    info["nonfinite_samples"] = stats.nonfinite_samples;
+    info["cancelled"] = stats.cancelled;
+    return py::make_tuple(image, info);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+    m.doc() = "Volpath native core: scene model, tracers and render loop.";
+
+    py::class_<Scene>(m, "Scene")
+        .def(py::init<>())
+        .def("add_bsdf_null", [](Scene &s) { return s.add_bsdf({NullBSDF{}, false}); })
+        .def("add_bsdf_diffuse",
+             [](Scene &s, Array3 r, bool twosided) { return s.add_bsdf({DiffuseBSDF{vec(r)}, twosided}); },
+             py::arg("reflectance"), py::arg("twosided") = false)
+        .def("add_bsdf_dielectric", [](Scene &s, double eta) { return s.add_bsdf({DielectricBSDF{eta}, false}); },
+             py::arg("eta"))
+        .def("add_bsdf_roughplastic",
+             [](Scene &s, Array3 diffuse, Array3 specular, double alpha, double eta, bool twosided) {
+                 return s.add_bsdf({RoughPlasticBSDF{vec(diffuse), vec(specular), std::max(alpha, 1e-4), eta},
+                                    twosided});
+             },
+             py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
+        .def("add_medium_homogeneous",
+             [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g) {
+                 return s.add_medium(HomogeneousMedium{vec(sigma_a), vec(sigma_s), phase(g)});
+             },
+             py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0)
+        .def("add_medium_grid",
+             [](Scene &s, const FloatArray &density, std::optional<FloatArray> albedo_grid, Array3 albedo,
+                double scale, const DoubleArray &world_to_grid, double g) {
+                 GridMedium gm;
+                 gm.density = voxel_grid(density);
+                 if (albedo_grid) gm.albedo_grid = voxel_grid(*albedo_grid);
+                 gm.albedo = vec(albedo);
+                 gm.scale = scale;
+                 gm.world_to_grid = transform(world_to_grid);
+                 gm.phase = phase(g);
+                 return s.add_medium(gm);
+             },
+             py::arg("density"), py::arg("albedo_grid"), py::arg("albedo"), py::arg("scale"),
+             py::arg("world_to_grid"), py::arg("g") = 0.0)
+        .def("add_mesh",
+             [](Scene &s, const DoubleArray &positions, const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
+                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
+                std::optional<Array3> radiance) {
+                 TriangleMesh mesh;
+                 mesh.positions = points(positions, "positions");
+                 if (normals) mesh.normals = points(*normals, "normals");
+                 if (triangles.ndim() != 2 || triangles.shape(1) != 3)
+                     throw std::invalid_argument("triangles must have shape (n, 3)");
+                 mesh.triangles.resize(size_t(triangles.shape(0)));
+                 for (size_t i = 0; i < mesh.triangles.size(); ++i)
+                     mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
+                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
+                 return s.add_shape_mesh(std::move(mesh), shape_info(bsdf, interior, exterior, medium_interface),
+                                         radiance ? &Le : nullptr);
+             },
+             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"),
+             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
+             py::arg("radiance") = py::none())
+        .def("add_sphere",
+             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
+                bool medium_interface, std::optional<Array3> radiance) {
+                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
+                 return s.add_shape_sphere(Sphere{vec(center), radius, flip},
+                                           shape_info(bsdf, interior, exterior, medium_interface),
+                                           radiance ? &Le : nullptr);
+             },
+             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"),
+             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
+             py::arg("radiance") = py::none())
+        .def("add_point_light",
+             [](Scene &s, Array3 p, Array3 intensity) { return s.add_light(PointLight{vec(p), vec(intensity)}); })
+        .def("add_directional_light",
+             [](Scene &s, Array3 d, Array3 irradiance) {
+                 return s.add_light(DirectionalLight{normalize(vec(d)), vec(irradiance)});
+             })
+        .def("add_environment",
+             [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,
+                const DoubleArray &to_local) {
+                 EnvironmentLight env;
+                 env.scale = vec(scale);
+                 env.to_world = transform(to_world);
+                 env.to_local = transform(to_local);
+                 if (image) {
+                     if (image->ndim() != 3 || image->shape(2) != 3 || image->shape(0) < 1 || image->shape(1) < 1)
+                         throw std::invalid_argument("environment image must have shape (h, w, 3)");
+                     env.height = int(image->shape(0)), env.width = int(image->shape(1));
+                     const float *p = image->data();
+                     env.pixels.resize(size_t(env.width) * env.height);
+                     for (size_t i = 0; i < env.pixels.size(); ++i) env.pixels[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+                 }
+                 return s.add_light(env);
+             },
+             py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"))
+        .def("set_camera",
+             [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,
+                double near_clip, double far_clip, int medium, bool gaussian) {
+                 if (width < 1 || height < 1) throw std::invalid_argument("film size must be positive");
+                 Camera &c = s.camera;
+                 c.to_world = transform(to_world);
+                 c.tan_half_x = tan_x, c.tan_half_y = tan_y;
+                 c.width = width, c.height = height;
+                 c.near_clip = near_clip, c.far_clip = far_clip;
+                 c.medium = medium;
+                 c.gaussian_filter = gaussian;
+             })
+        .def("build", [](Scene &s) {
+            py::gil_scoped_release release;
+            s.build();
+        })
+        .def_property_readonly("width", [](const Scene &s) { return s.camera.width; })
+        .def_property_readonly("height", [](const Scene &s) { return s.camera.height; })
+        .def_property_readonly("light_count", [](const Scene &s) { return s.lights.size(); })
+        .def("__repr__", [](const Scene &s) { return "<volpath._core.Scene: " + s.describe() + ">"; });
+
+    m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
+          py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
+          py::arg("progress") = py::none());
+
+    // Sampler access for the statistical tests (chi-square against the pdfs).
+    m.def("phase_sample", [](double g, const DoubleArray &u) {
+        const size_t n = size_t(u.shape(0));
+        py::array_t<double> dirs({n, size_t(3)}), pdfs(n);
+        auto d = dirs.mutable_unchecked<2>();
+        auto p = pdfs.mutable_unchecked<1>();
+        for (size_t i = 0; i < n; ++i) {
+            const PhaseSample s = phase_sample(phase(g), {0, 0, 1}, {u.at(i, 0), u.at(i, 1)});
+            d(i, 0) = s.d_out.x, d(i, 1) = s.d_out.y, d(i, 2) = s.d_out.z;
+            p(i) = s.pdf;
+        }
+        return py::make_tuple(dirs, pdfs);
+    });
+    m.def("phase_eval", [](double g, double mu) { return phase_eval(phase(g), mu); });
+    m.def("light_sample", [](Scene &s, int light, Array3 ref, const DoubleArray &u) {
+        if (!s.built) s.build();
+        if (light < 0 || light >= int(s.lights.size())) throw std::out_of_range("no such light");
+        const size_t n = size_t(u.shape(0));
+        py::array_t<double> dirs({n, size_t(3)}), pdfs(n);
+        auto d = dirs.mutable_unchecked<2>();
+        auto p = pdfs.mutable_unchecked<1>();
+        for (size_t i = 0; i < n; ++i) {
+            LightSample ls;
+            const bool ok = sample_light(s.lights[light], s.geometry, vec(ref), {u.at(i, 0), u.at(i, 1)}, ls);
+            d(i, 0) = ls.d.x, d(i, 1) = ls.d.y, d(i, 2) = ls.d.z;
+            p(i) = ok ? ls.pdf : 0.0;
+        }
+        return py::make_tuple(dirs, pdfs);
+    });
+    // Solid-angle pdf of light `light` along directions d from ref, found by tracing rays.
+    m.def("light_pdf", [](Scene &s, int light, Array3 ref, const DoubleArray &dirs) {
+        if (!s.built) s.build();
+        const Light &l = s.lights.at(size_t(light));
+        const std::vector<Vec3> ds = points(dirs, "directions");
+        py::array_t<double> out(ds.size());
+        auto o = out.mutable_unchecked<1>();
+        for (size_t i = 0; i < ds.size(); ++i) {
+            const Vec3 d = normalize(ds[i]);
+            Intersection its;
+            o(i) = 0.0;
+            if (const auto *area = std::get_if<AreaLight>(&l)) {
+                if (!s.intersect(Ray{vec(ref), d, 0, kInfinity}, its) || its.shape != area->shape ||
+                    dot(its.n, d) >= 0)
+                    continue;
+            }
+            o(i) = light_pdf(l, s.geometry, vec(ref), d, its);
+        }
+        return out;
+    });
+    m.def("bsdf_sample", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &u) {
+        const size_t n = size_t(u.shape(0));
+        py::array_t<double> dirs({n, size_t(3)}), pdfs(n);
+        auto d = dirs.mutable_unchecked<2>();
+        auto p = pdfs.mutable_unchecked<1>();
+        for (size_t i = 0; i < n; ++i) {
+            BSDFSample bs;
+            const bool ok = bsdf_sample(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), u.at(i, 0), {u.at(i, 1), u.at(i, 2)}, bs);
+            d(i, 0) = bs.wo.x, d(i, 1) = bs.wo.y, d(i, 2) = bs.wo.z;
+            p(i) = ok ? bs.pdf : 0.0;
+        }
+        return py::make_tuple(dirs, pdfs);
+    });
+    m.def("bsdf_pdf", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &wos) {
+        const std::vector<Vec3> ds = points(wos, "directions");
+        py::array_t<double> out(ds.size());
+        auto o = out.mutable_unchecked<1>();
+        for (size_t i = 0; i < ds.size(); ++i)
+            o(i) = bsdf_pdf(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), normalize(ds[i]));
+        return out;
+    });
+}

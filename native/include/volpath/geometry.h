@@ -1,0 +1,93 @@
+// Shapes (triangle meshes and analytic spheres) and the BVH over them.
+//
+// Volpath traces its own double-precision BVH instead of Embree: planet-scale scenes
+// need double precision, and Blender's process exports Embree 4's symbols, which a
+// module linked to Embree 3 binds to by mistake (native/README.md).
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "math.h"
+
+namespace volpath {
+
+struct TriangleMesh {
+    std::vector<Vec3> positions;
+    std::vector<Vec3> normals;  // per vertex, optional (smooth shading)
+    std::vector<std::array<uint32_t, 3>> triangles;
+    Real area(size_t i) const;
+};
+
+struct Sphere {
+    Vec3 center;
+    Real radius = 1;
+    bool flip_normals = false;
+};
+
+struct Bounds {
+    Vec3 lo{kInfinity}, hi{-kInfinity};
+    void extend(const Vec3 &p) { lo = min(lo, p), hi = max(hi, p); }
+    void extend(const Bounds &b) { lo = min(lo, b.lo), hi = max(hi, b.hi); }
+    Vec3 centroid() const { return (lo + hi) * 0.5; }
+    Real surface_area() const {
+        const Vec3 e = clamp_zero(hi - lo);
+        return 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x);
+    }
+    bool valid() const { return lo.x <= hi.x; }
+};
+
+struct Intersection {
+    Real t = kInfinity;
+    Vec3 p;
+    Vec3 n;   // geometric normal, unit, on the shape's front side
+    Vec3 ns;  // shading normal, on the same side as n
+    int shape = -1;
+    uint32_t prim = 0;
+};
+
+// One entry per scene shape: either a mesh or a sphere.
+struct ShapeGeometry {
+    bool is_sphere = false;
+    int index = 0;  // into Geometry::meshes or Geometry::spheres
+};
+
+class Geometry {
+public:
+    std::vector<TriangleMesh> meshes;
+    std::vector<Sphere> spheres;
+    std::vector<ShapeGeometry> shapes;
+
+    int add_mesh(TriangleMesh mesh);
+    int add_sphere(const Sphere &sphere);
+    void build();  // must be called after the last add
+    bool intersect(const Ray &ray, Intersection &its) const;
+    Bounds bounds() const { return nodes_.empty() ? Bounds{} : nodes_[0].bounds; }
+
+private:
+    struct Primitive {
+        int shape;
+        uint32_t index;
+    };
+    struct Node {
+        Bounds bounds;
+        uint32_t first = 0;  // first primitive (leaf) or second child (inner)
+        uint16_t count = 0;  // primitives in a leaf, 0 for an inner node
+        uint8_t axis = 0;
+    };
+    std::vector<Primitive> prims_;
+    std::vector<Node> nodes_;
+
+    Bounds primitive_bounds(const Primitive &p) const;
+    uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
+                             uint32_t begin, uint32_t end);
+    bool intersect_primitive(const Primitive &p, const Ray &ray, Real t_max,
+                             Intersection &its) const;
+};
+
+// Ray-sphere distances in the numerically stable form (both roots; t0 <= t1).
+// Returns false when the line misses.
+bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0,
+                  Real &t1);
+
+}  // namespace volpath

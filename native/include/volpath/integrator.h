@@ -1,0 +1,41 @@
+// The five volumetric path tracers, each a superset of the previous one. They are one
+// estimator with features switched on in order, so they share every sampler:
+//
+//   absorption       L = T(camera -> first surface) Le, closed-form transmittance.
+//   single           + one real scattering event (medium or surface) lit by next-event
+//                      estimation; max_depth is at most 2.
+//   multiple         + any number of events, phase/BSDF sampling only (no NEE: delta
+//                      lights are invisible), Russian roulette.
+//   nee_mis          + NEE at every event, combined with phase/BSDF sampling by the
+//                      power heuristic; shadow rays cross index-matched boundaries.
+//   null_scattering  + heterogeneous media: delta tracking against a majorant, ratio
+//                      tracking on shadow rays.
+//
+// All of them handle chromatic (RGB) coefficients the same way: each path picks one
+// colour channel to sample distances with, and every pdf is averaged over the channels
+// (one-sample spectral MIS), kept as the rescaled path pdfs r_u (unidirectional) and
+// r_l (light) of pbrt-v4. max_depth counts path segments as Mitsuba does: 1 = emitters
+// seen directly, 2 = single scattering, -1 = unlimited; index-matched crossings are free.
+#pragma once
+
+#include "scene.h"
+
+namespace volpath {
+
+enum class Tracer { Absorption = 0, Single, Multiple, NeeMis, NullScattering };
+
+struct TracerConfig {
+    Tracer tracer = Tracer::NullScattering;
+    int max_depth = -1;
+    int rr_depth = 5;
+    int max_null_collisions = 1000;
+};
+
+// Radiance arriving along `ray`, which starts in `medium` (-1: vacuum).
+Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
+                  const TracerConfig &config);
+
+// Throws std::invalid_argument if the tracer cannot render the scene's media.
+void check_tracer_supports(const Scene &scene, Tracer tracer);
+
+}  // namespace volpath

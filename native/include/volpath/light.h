@@ -1,0 +1,63 @@
+// Emitters. Sampling returns a direction from a reference point with its solid-angle
+// pdf (before the probability of choosing the light); `pdf` for the same direction
+// found by another strategy must agree with it (checked by the chi-square tests).
+#pragma once
+
+#include <variant>
+#include <vector>
+
+#include "geometry.h"
+#include "warp.h"
+
+namespace volpath {
+
+struct PointLight {
+    Vec3 position;
+    Spectrum intensity;  // W / sr
+};
+
+struct DirectionalLight {
+    Vec3 direction;  // unit, the direction light travels
+    Spectrum irradiance;
+};
+
+// Radiance leaving the front side of a shape.
+struct AreaLight {
+    int shape = -1;
+    Spectrum radiance;
+    Distribution1D triangle_areas;  // meshes: choose a triangle by area
+    Real area = 0;
+};
+
+// Radiance arriving from infinity: a constant, or a latitude-longitude map (Mitsuba's
+// convention: y up, u = atan2(x, -z) / 2 pi, v = acos(y) / pi) times `scale`.
+struct EnvironmentLight {
+    Spectrum scale{1.0};
+    int width = 0, height = 0;  // 0: constant
+    std::vector<Spectrum> pixels;
+    Distribution2D distribution;
+    Transform to_world, to_local;
+};
+
+using Light = std::variant<PointLight, DirectionalLight, AreaLight, EnvironmentLight>;
+
+struct LightSample {
+    Vec3 d;           // unit, from the reference point towards the light
+    Real dist = 0;    // to the light; infinity for lights at infinity
+    Spectrum L;       // radiance (or intensity / dist^2, or irradiance for delta lights)
+    Real pdf = 0;     // solid angle; 1 for delta lights
+    bool delta = false;
+};
+
+void prepare_light(Light &light, const Geometry &geometry);
+bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref, Vec2 u,
+                  LightSample &out);
+// Solid-angle pdf of reaching the emitter along d from ref; `its` is the point hit on
+// an area light (ignored for lights at infinity).
+Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d,
+               const Intersection &its);
+// Radiance from an environment light along direction d (pointing away from the scene).
+Spectrum environment_radiance(const EnvironmentLight &env, const Vec3 &d);
+inline bool is_infinite(const Light &l) { return std::holds_alternative<EnvironmentLight>(l); }
+
+}  // namespace volpath

@@ -1,0 +1,40 @@
+// The render loop: tiles handed to worker threads, one sampler per pixel sample, so an
+// image depends on the seed only, never on the thread count or the schedule.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+#include "integrator.h"
+
+namespace volpath {
+
+struct RenderSettings {
+    int spp = 16;
+    uint64_t seed = 0;
+    int threads = 0;  // 0: all hardware threads
+    TracerConfig tracer;
+};
+
+struct RenderProgress {
+    std::atomic<int64_t> tiles_done{0};
+    int64_t tiles_total = 0;
+    std::atomic<bool> cancel{false};
+};
+
+struct RenderStats {
+    double seconds = 0;
+    uint64_t nonfinite_samples = 0;  // discarded (counted, never silently dropped)
+    bool cancelled = false;
+};
+
+// Renders into `image` (height * width * 3 floats, row-major, linear RGB).
+RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
+                   RenderProgress &progress);
+
+constexpr int kTileSize = 16;
+inline int64_t tile_count(const Camera &c) {
+    return int64_t((c.width + kTileSize - 1) / kTileSize) * ((c.height + kTileSize - 1) / kTileSize);
+}
+
+}  // namespace volpath

@@ -1,0 +1,58 @@
+// The in-memory scene: plain arrays of shapes, BSDFs, media and lights, indexed by int
+// (-1 = none). Loaders and exporters fill it through the builder functions.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "bsdf.h"
+#include "geometry.h"
+#include "light.h"
+#include "medium.h"
+
+namespace volpath {
+
+struct ShapeInfo {
+    int bsdf = -1;
+    int light = -1;  // the AreaLight on this shape
+    // Only shapes with a medium interface change the medium a ray travels in:
+    // leaving through the front (along the normal) enters `exterior`, else `interior`.
+    bool medium_interface = false;
+    int interior = -1, exterior = -1;
+};
+
+// Mitsuba's perspective camera: looks along +z of `to_world`, +x of the camera points to
+// the left of the image and +y up.
+struct Camera {
+    Transform to_world;
+    Real tan_half_x = 1, tan_half_y = 1;
+    int width = 64, height = 64;
+    Real near_clip = 1e-2, far_clip = 1e4;
+    int medium = -1;
+    bool gaussian_filter = false;  // Mitsuba's default: stddev 0.5 px, radius 2 px
+};
+
+struct Scene {
+    Geometry geometry;
+    std::vector<ShapeInfo> shapes;
+    std::vector<BSDF> bsdfs;
+    std::vector<Medium> media;
+    std::vector<Light> lights;
+    std::vector<int> environment_lights;  // indices into lights
+    Camera camera;
+    bool built = false;
+
+    int add_bsdf(const BSDF &b);
+    int add_medium(const Medium &m);
+    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance);
+    int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
+    int add_light(const Light &l);
+    void build();
+
+    Real light_select_pdf() const { return lights.empty() ? 0.0 : 1.0 / Real(lights.size()); }
+    bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
+    bool has_heterogeneous_media() const;
+    std::string describe() const;
+};
+
+}  // namespace volpath

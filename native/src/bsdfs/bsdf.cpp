@@ -1,0 +1,179 @@
+#include "volpath/bsdf.h"
+
+#include "volpath/warp.h"
+
+namespace volpath {
+
+Real fresnel_dielectric(Real cos_theta_i, Real eta, Real *cos_theta_t) {
+    const bool outside = cos_theta_i >= 0;
+    const Real eta_it = outside ? eta : 1.0 / eta, eta_ti = 1.0 / eta_it;
+    const Real cos_t_sqr = 1.0 - eta_ti * eta_ti * (1.0 - cos_theta_i * cos_theta_i);
+    if (cos_t_sqr <= 0) {  // total internal reflection
+        if (cos_theta_t) *cos_theta_t = 0;
+        return 1.0;
+    }
+    const Real ci = std::abs(cos_theta_i), ct = std::sqrt(cos_t_sqr);
+    const Real a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+    const Real a_p = (eta_it * ci - ct) / (eta_it * ci + ct);
+    if (cos_theta_t) *cos_theta_t = outside ? -ct : ct;
+    return 0.5 * (a_s * a_s + a_p * a_p);
+}
+
+namespace {
+
+// Fits of the hemispherical average of Fresnel reflectance (d'Eon & Irving 2011).
+Real fresnel_diffuse_reflectance(Real eta) {
+    if (eta < 1) {
+        return 0.919317 - 3.4793 * eta + 6.75335 * eta * eta - 7.80989 * eta * eta * eta +
+               4.98554 * sqr(eta * eta) - 1.36881 * sqr(eta * eta) * eta;
+    }
+    return -1.4399 / (eta * eta) + 0.7099 / eta + 0.6681 + 0.0636 * eta;
+}
+
+// GGX (Trowbridge-Reitz) normal distribution and Smith's separable masking.
+Real ggx_d(Real alpha, const Vec3 &h) {
+    if (h.z <= 0) return 0;
+    const Real a2 = alpha * alpha;
+    const Real t = h.z * h.z * (a2 - 1.0) + 1.0;
+    return a2 / (kPi * t * t);
+}
+Real ggx_g1(Real alpha, const Vec3 &v, const Vec3 &h) {
+    if (dot(v, h) * v.z <= 0) return 0;
+    const Real tan2 = std::max(0.0, 1.0 - v.z * v.z) / (v.z * v.z);
+    return 2.0 / (1.0 + std::sqrt(1.0 + alpha * alpha * tan2));
+}
+
+// Probability of choosing the specular lobe of the rough plastic: proportional to the
+// energy each lobe returns at this incident angle, kept away from 0 and 1 so that
+// both lobes stay reachable.
+Real plastic_specular_probability(const RoughPlasticBSDF &b, Real cos_i) {
+    const Real f = fresnel_dielectric(cos_i, b.eta);
+    const Real s = f * max_component(b.specular);
+    const Real d = (1.0 - f) * max_component(b.diffuse);
+    return s + d > 0 ? std::clamp(s / (s + d), 0.05, 0.95) : 0.5;
+}
+
+struct Eval {
+    Vec3 wi, wo;
+    Spectrum operator()(const NullBSDF &) const { return Spectrum(0.0); }
+    Spectrum operator()(const DielectricBSDF &) const { return Spectrum(0.0); }
+    Spectrum operator()(const DiffuseBSDF &b) const {
+        if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
+        return b.reflectance * (kInvPi * wo.z);
+    }
+    Spectrum operator()(const RoughPlasticBSDF &b) const {
+        if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
+        const Vec3 h = normalize(wi + wo);
+        const Real f = fresnel_dielectric(dot(wi, h), b.eta);
+        const Real spec = f * ggx_d(b.alpha, h) * ggx_g1(b.alpha, wi, h) * ggx_g1(b.alpha, wo, h) /
+                          (4.0 * wi.z);
+        // Light enters and leaves the coating once each; the base reflects diffusely and
+        // inter-reflects under the coating (the 1 / (1 - Fdr_internal) series).
+        const Real t_i = 1.0 - fresnel_dielectric(wi.z, b.eta);
+        const Real t_o = 1.0 - fresnel_dielectric(wo.z, b.eta);
+        const Real internal = fresnel_diffuse_reflectance(1.0 / b.eta);
+        const Spectrum diff = b.diffuse * (kInvPi * wo.z * t_i * t_o / (b.eta * b.eta * (1.0 - internal)));
+        return b.specular * spec + diff;
+    }
+};
+
+struct Pdf {
+    Vec3 wi, wo;
+    Real operator()(const NullBSDF &) const { return 0; }
+    Real operator()(const DielectricBSDF &) const { return 0; }
+    Real operator()(const DiffuseBSDF &) const {
+        return wi.z > 0 ? cosine_hemisphere_pdf(wo.z) : 0.0;
+    }
+    Real operator()(const RoughPlasticBSDF &b) const {
+        if (wi.z <= 0 || wo.z <= 0) return 0;
+        const Real p_spec = plastic_specular_probability(b, wi.z);
+        const Vec3 h = normalize(wi + wo);
+        const Real pdf_spec = ggx_d(b.alpha, h) * h.z / (4.0 * std::abs(dot(wo, h)));
+        return p_spec * pdf_spec + (1.0 - p_spec) * cosine_hemisphere_pdf(wo.z);
+    }
+};
+
+struct Sample {
+    const BSDF &bsdf;
+    Vec3 wi;
+    Real u_lobe;
+    Vec2 u;
+    BSDFSample &out;
+    bool operator()(const NullBSDF &) const { return false; }
+    bool operator()(const DiffuseBSDF &b) const {
+        if (wi.z <= 0) return false;
+        out.wo = sample_cosine_hemisphere(u);
+        out.pdf = cosine_hemisphere_pdf(out.wo.z);
+        out.weight = b.reflectance;
+        out.delta = false;
+        return out.pdf > 0;
+    }
+    bool operator()(const DielectricBSDF &b) const {
+        Real cos_t;
+        const Real r = fresnel_dielectric(wi.z, b.eta, &cos_t);
+        out.delta = true;
+        if (u_lobe < r) {
+            out.wo = {-wi.x, -wi.y, wi.z};
+            out.pdf = r;
+            out.weight = Spectrum(1.0);
+        } else {
+            // Radiance is compressed into a smaller solid angle on entering: scale by eta_ti^2.
+            const Real eta_ti = wi.z >= 0 ? 1.0 / b.eta : b.eta;
+            out.wo = {-wi.x * eta_ti, -wi.y * eta_ti, cos_t};
+            out.pdf = 1.0 - r;
+            out.weight = Spectrum(eta_ti * eta_ti);
+        }
+        return true;
+    }
+    bool operator()(const RoughPlasticBSDF &b) const {
+        if (wi.z <= 0) return false;
+        const Real p_spec = plastic_specular_probability(b, wi.z);
+        if (u_lobe < p_spec) {
+            // h ~ D(h) cos(theta_h): tan^2 theta = alpha^2 u / (1 - u).
+            const Real tan2 = b.alpha * b.alpha * u.x / (1.0 - u.x);
+            const Real cos_h = 1.0 / std::sqrt(1.0 + tan2);
+            const Real sin_h = safe_sqrt(1.0 - cos_h * cos_h);
+            const Real phi = 2.0 * kPi * u.y;
+            const Vec3 h{sin_h * std::cos(phi), sin_h * std::sin(phi), cos_h};
+            out.wo = h * (2.0 * dot(wi, h)) - wi;
+        } else {
+            out.wo = sample_cosine_hemisphere(u);
+        }
+        out.delta = false;
+        if (out.wo.z <= 0) return false;
+        out.pdf = Pdf{wi, out.wo}(b);
+        if (!(out.pdf > 0)) return false;
+        out.weight = Eval{wi, out.wo}(b) / out.pdf;
+        return true;
+    }
+};
+
+// Two-sided BSDFs see every surface from the front.
+void flip_to_front(const BSDF &b, Vec3 &wi, Vec3 &wo) {
+    if (b.twosided && wi.z < 0) {
+        wi.z = -wi.z;
+        wo.z = -wo.z;
+    }
+}
+
+}  // namespace
+
+Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo) {
+    flip_to_front(bsdf, wi, wo);
+    return std::visit(Eval{wi, wo}, bsdf.model);
+}
+
+Real bsdf_pdf(const BSDF &bsdf, Vec3 wi, Vec3 wo) {
+    flip_to_front(bsdf, wi, wo);
+    return std::visit(Pdf{wi, wo}, bsdf.model);
+}
+
+bool bsdf_sample(const BSDF &bsdf, Vec3 wi, Real u_lobe, Vec2 u, BSDFSample &out) {
+    const bool flipped = bsdf.twosided && wi.z < 0;
+    if (flipped) wi.z = -wi.z;
+    if (!std::visit(Sample{bsdf, wi, u_lobe, u, out}, bsdf.model)) return false;
+    if (flipped) out.wo.z = -out.wo.z;
+    return true;
+}
+
+}  // namespace volpath

@@ -1,0 +1,323 @@
+#include <stdexcept>
+
+#include "volpath/integrator.h"
+
+namespace volpath {
+
+namespace {
+
+// A ray that leaves a surface point on the side of `d` (n = 0 for points in a medium).
+Ray spawn_ray(const Vec3 &p, const Vec3 &n, const Vec3 &d, Real t_max = kInfinity) {
+    const Real side = dot(d, n) >= 0 ? 1.0 : -1.0;
+    return Ray{p + n * (side * ray_epsilon(p)), d, 0, t_max};
+}
+
+int medium_after_crossing(const ShapeInfo &shape, const Vec3 &d, const Vec3 &n, int current) {
+    if (!shape.medium_interface) return current;
+    return dot(d, n) > 0 ? shape.exterior : shape.interior;
+}
+
+// Rays that keep re-entering index-matched surfaces (coincident boundaries) stop here.
+constexpr int kMaxNullCrossings = 256;
+
+// One-sample MIS between two strategies whose channel-averaged densities are in the
+// ratio a : b, with the power heuristic. Returns w / a, what multiplies beta * L.
+Real mis_over_a(Real a, Real b) { return a / (a * a + b * b); }
+
+struct Features {
+    bool scatter, nee, mis, emission_after_scatter;
+    int max_depth;
+};
+
+Features features_of(const TracerConfig &c) {
+    Features f{};
+    f.scatter = c.tracer != Tracer::Absorption;
+    f.nee = c.tracer == Tracer::Single || c.tracer >= Tracer::NeeMis;
+    f.mis = c.tracer >= Tracer::NeeMis;
+    // Without NEE, emitters are found only by hitting them; with NEE but no MIS (single),
+    // only the camera ray and specular chains may hit them, or light would count twice.
+    f.emission_after_scatter = !f.nee || f.mis;
+    f.max_depth = c.max_depth;
+    if (c.tracer == Tracer::Absorption) f.max_depth = 1;
+    if (c.tracer == Tracer::Single) f.max_depth = c.max_depth < 0 ? 2 : std::min(c.max_depth, 2);
+    return f;
+}
+
+// Next-event estimation from a scattering point: choose a light uniformly, sample a
+// point on it and trace a shadow ray through index-matched boundaries and media.
+// `eval(d)` returns the scattering value f (times the cosine, for surfaces) and its
+// sampling pdf for direction d. r_p is the path's rescaled unidirectional pdf.
+template <typename Eval>
+Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
+                       int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
+                       Sampler &sampler, Eval &&eval) {
+    const int n_lights = int(scene.lights.size());
+    if (n_lights == 0) return Spectrum(0.0);
+    const int light = std::min(int(sampler.next_1d() * n_lights), n_lights - 1);
+    LightSample ls;
+    if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
+        !(ls.pdf > 0) || is_black(ls.L))
+        return Spectrum(0.0);
+    Real scatter_pdf;
+    const Spectrum f = eval(ls.d, scatter_pdf);
+    if (is_black(f)) return Spectrum(0.0);
+
+    // Transmittance along the shadow ray. Homogeneous media have it in closed form;
+    // heterogeneous ones use ratio tracking, whose tentative collisions also update the
+    // rescaled pdfs (pbrt-v4's SampleLd), so that the MIS weights match those computed
+    // when the same path is found by phase or BSDF sampling.
+    Spectrum T_ray(1.0), r_l(1.0), r_u(1.0);
+    const Real remaining0 = std::isfinite(ls.dist) ? ls.dist * (1 - 1e-7) : kInfinity;
+    Ray ray = spawn_ray(p, n, ls.d, remaining0);
+    Real remaining = remaining0;
+    int current = surface ? medium_after_crossing(*surface, ls.d, n, medium) : medium;
+    for (int crossing = 0;; ++crossing) {
+        if (crossing > kMaxNullCrossings) return Spectrum(0.0);
+        Intersection its;
+        const bool hit = scene.intersect(ray, its);
+        const Real t_end = hit ? its.t : ray.t_max;
+        if (current >= 0) {
+            const Medium &m = scene.media[current];
+            if (is_homogeneous(m)) {
+                const auto &h = std::get<HomogeneousMedium>(m);
+                const Spectrum T = exp(-(h.sigma_a + h.sigma_s) * (t_end - ray.t_min));
+                T_ray *= T;
+                // Phase sampling would have to fly through without colliding, unless the
+                // medium only absorbs, where both strategies apply T in closed form.
+                if (!is_black(h.sigma_s)) r_u *= T;
+            } else {
+                const Spectrum T_maj = sample_T_maj(
+                    m, ray, t_end, channel, sampler,
+                    [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
+                        const Spectrum &T_seg) {
+                        const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
+                        const Real pdf = T_seg[channel] * sigma_maj[channel];
+                        T_ray *= T_seg * sigma_n / pdf;
+                        r_l *= T_seg * sigma_maj / pdf;
+                        r_u *= T_seg * sigma_n / pdf;
+                        // Russian roulette on a transmittance estimate that got small.
+                        const Spectrum Tr = T_ray / average(r_l + r_u);
+                        if (max_component(Tr) < 0.05) {
+                            if (sampler.next_1d() < 0.75) T_ray = Spectrum(0.0);
+                            else T_ray /= 0.25;
+                        }
+                        return !is_black(T_ray);
+                    });
+                const Real pdf = T_maj[channel];
+                if (!(pdf > 0)) return Spectrum(0.0);
+                T_ray *= T_maj / pdf;
+                r_l *= T_maj / pdf;
+                r_u *= T_maj / pdf;
+            }
+            if (is_black(T_ray)) return Spectrum(0.0);
+        }
+        if (!hit) break;
+        const ShapeInfo &shape = scene.shapes[its.shape];
+        if (!is_null(scene.bsdfs[shape.bsdf])) return Spectrum(0.0);  // occluded
+        current = medium_after_crossing(shape, ray.d, its.n, current);
+        remaining -= its.t;
+        ray = spawn_ray(its.p, its.n, ray.d, remaining);
+    }
+
+    const Real light_pdf = scene.light_select_pdf() * ls.pdf;
+    r_l *= r_p * light_pdf;
+    r_u *= r_p * scatter_pdf;
+    const Spectrum contribution = beta * f * T_ray * ls.L;
+    if (ls.delta || !mis) return contribution / average(r_l);
+    return contribution * mis_over_a(average(r_l), average(r_u));
+}
+
+}  // namespace
+
+void check_tracer_supports(const Scene &scene, Tracer tracer) {
+    if (tracer == Tracer::NullScattering) return;
+    for (size_t i = 0; i < scene.media.size(); ++i) {
+        if (!is_homogeneous(scene.media[i]))
+            throw std::invalid_argument(
+                "medium " + std::to_string(i) +
+                " is heterogeneous: only the null_scattering tracer renders heterogeneous media");
+    }
+}
+
+Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
+                  const TracerConfig &config) {
+    const Features feat = features_of(config);
+    Spectrum L(0.0), beta(1.0), r_u(1.0), r_l(1.0);
+    const int channel = std::min(int(sampler.next_1d() * 3), 2);
+    int depth = 0;              // real scattering events so far
+    bool specular_bounce = true;  // the camera counts as specular: nothing to MIS with
+    Vec3 prev_p = ray.o;
+    int null_collisions = 0, null_crossings = 0;
+
+    // Emission found by following the path: weighted against NEE where both can find it.
+    auto add_emission = [&](const Spectrum &Le, Real pdf_light_dir) {
+        if (is_black(Le)) return;
+        if (specular_bounce) {
+            L += beta * Le / average(r_u);
+        } else if (feat.emission_after_scatter) {
+            if (!feat.mis) {
+                L += beta * Le / average(r_u);
+            } else {
+                const Spectrum r_light = r_l * (scene.light_select_pdf() * pdf_light_dir);
+                L += beta * Le * mis_over_a(average(r_u), average(r_light));
+            }
+        }
+    };
+
+    for (;;) {
+        Intersection its;
+        const bool hit = scene.intersect(ray, its);
+        const Real t_end = hit ? its.t : ray.t_max;
+
+        // Travel through the current medium, possibly scattering in it.
+        if (medium >= 0) {
+            const Medium &m = scene.media[medium];
+            const auto *h = std::get_if<HomogeneousMedium>(&m);
+            if (!feat.scatter || (h && is_black(h->sigma_s))) {
+                // Nothing scatters: the transmittance is exact and needs no sampling.
+                beta *= exp(-(h->sigma_a + h->sigma_s) * (t_end - ray.t_min));
+            } else {
+                bool scattered = false, terminated = false;
+                const Spectrum T_maj = sample_T_maj(
+                    m, ray, t_end, channel, sampler,
+                    [&](const Vec3 &p, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
+                        const Spectrum &T_seg) {
+                        const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
+                        // Real or null collision, in proportion to sigma_t : sigma_n in the
+                        // sampling channel. Absorption is not sampled: it weights beta.
+                        if (sampler.next_1d() * sigma_maj[channel] < sigma_t[channel]) {
+                            if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) {
+                                terminated = true;
+                                return false;
+                            }
+                            const Real pdf = T_seg[channel] * sigma_t[channel];
+                            beta *= T_seg * mp.sigma_s / pdf;
+                            r_u *= T_seg * sigma_t / pdf;
+                            if (is_black(beta)) {
+                                terminated = true;
+                                return false;
+                            }
+                            ++depth;
+                            const PhaseFunction &phase = medium_phase(m);
+                            if (feat.nee) {
+                                L += sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta, r_u, channel,
+                                                   feat.mis, sampler, [&](const Vec3 &d, Real &pdf_d) {
+                                                       pdf_d = phase_eval(phase, dot(ray.d, d));
+                                                       return Spectrum(pdf_d);
+                                                   });
+                                if (!feat.emission_after_scatter) {
+                                    terminated = true;  // single scattering is complete
+                                    return false;
+                                }
+                            }
+                            const PhaseSample ps = phase_sample(phase, ray.d, sampler.next_2d());
+                            if (!(ps.pdf > 0)) {
+                                terminated = true;
+                                return false;
+                            }
+                            // The phase function is sampled exactly: beta is unchanged.
+                            r_l = r_u / ps.pdf;
+                            prev_p = p;
+                            specular_bounce = false;
+                            null_crossings = 0;
+                            ray = Ray{p, ps.d_out, 0, kInfinity};
+                            scattered = true;
+                            return false;
+                        }
+                        if (++null_collisions > config.max_null_collisions) {
+                            terminated = true;
+                            return false;
+                        }
+                        const Spectrum sigma_n = clamp_zero(sigma_maj - sigma_t);
+                        const Real pdf = T_seg[channel] * sigma_n[channel];
+                        if (!(pdf > 0)) {
+                            terminated = true;
+                            return false;
+                        }
+                        beta *= T_seg * sigma_n / pdf;
+                        r_u *= T_seg * sigma_n / pdf;
+                        r_l *= T_seg * sigma_maj / pdf;
+                        return !is_black(beta);
+                    });
+                if (terminated) return L;
+                if (scattered) {
+                    // Russian roulette on the channel-averaged throughput.
+                    if (depth >= config.rr_depth) {
+                        const Real q = std::min(max_component(beta / average(r_u)), 0.95);
+                        if (!(sampler.next_1d() < q)) return L;
+                        beta /= q;
+                    }
+                    continue;
+                }
+                // No collision before t_end. Homogeneous media are crossed by shadow rays in
+                // closed form, so the light strategy's density does not include T there.
+                const Real pdf = T_maj[channel];
+                if (!(pdf > 0)) return L;
+                beta *= T_maj / pdf;
+                r_u *= T_maj / pdf;
+                if (is_homogeneous(m)) {
+                    r_l /= pdf;
+                } else {
+                    r_l *= T_maj / pdf;
+                }
+            }
+        }
+
+        if (!hit) {
+            for (int index : scene.environment_lights) {
+                const auto &env = std::get<EnvironmentLight>(scene.lights[index]);
+                add_emission(environment_radiance(env, ray.d),
+                             light_pdf(scene.lights[index], scene.geometry, prev_p, ray.d, its));
+            }
+            return L;
+        }
+
+        const ShapeInfo &shape = scene.shapes[its.shape];
+        if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
+            const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
+            add_emission(area.radiance,
+                         light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
+        }
+
+        const BSDF &bsdf = scene.bsdfs[shape.bsdf];
+        if (is_null(bsdf)) {
+            if (++null_crossings > kMaxNullCrossings) return L;
+            medium = medium_after_crossing(shape, ray.d, its.n, medium);
+            const Real t_left = ray.t_max - its.t;
+            ray = spawn_ray(its.p, its.n, ray.d, t_left);
+            continue;
+        }
+        if (!feat.scatter) return L;
+        if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) return L;
+        ++depth;
+
+        const Frame frame(its.ns);
+        const Vec3 wi = frame.to_local(-ray.d);
+        if (feat.nee && !is_delta(bsdf)) {
+            L += sample_direct(scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler, [&](const Vec3 &d, Real &pdf_d) {
+                                   const Vec3 wo = frame.to_local(d);
+                                   pdf_d = bsdf_pdf(bsdf, wi, wo);
+                                   return bsdf_eval(bsdf, wi, wo);
+                               });
+            if (!feat.emission_after_scatter) return L;
+        }
+        BSDFSample bs;
+        if (!bsdf_sample(bsdf, wi, sampler.next_1d(), sampler.next_2d(), bs)) return L;
+        const Vec3 wo = frame.to_world(bs.wo);
+        beta *= bs.weight;
+        specular_bounce = bs.delta;
+        if (!bs.delta) r_l = r_u / bs.pdf;
+        prev_p = its.p;
+        null_crossings = 0;
+        medium = medium_after_crossing(shape, wo, its.n, medium);
+        ray = spawn_ray(its.p, its.n, wo);
+        if (is_black(beta)) return L;
+        if (depth >= config.rr_depth) {
+            const Real q = std::min(max_component(beta / average(r_u)), 0.95);
+            if (!(sampler.next_1d() < q)) return L;
+            beta /= q;
+        }
+    }
+}
+
+}  // namespace volpath

@@ -1,0 +1,91 @@
+#include "volpath/render.h"
+
+#include <chrono>
+#include <thread>
+#include <vector>
+
+namespace volpath {
+
+namespace {
+
+// Offset of a pixel sample from the pixel centre. Box: uniform over the pixel.
+// Gaussian (Mitsuba's default filter, stddev 0.5 px truncated at 2 px): sampled exactly,
+// so every sample has weight one.
+Vec2 filter_offset(const Camera &camera, Sampler &sampler) {
+    if (!camera.gaussian_filter) {
+        const Vec2 u = sampler.next_2d();
+        return {u.x - 0.5, u.y - 0.5};
+    }
+    for (;;) {
+        const Vec2 u = sampler.next_2d();
+        const Real r = 0.5 * std::sqrt(-2.0 * std::log1p(-u.x)), phi = 2.0 * kPi * u.y;
+        const Vec2 o{r * std::cos(phi), r * std::sin(phi)};
+        if (std::abs(o.x) <= 2.0 && std::abs(o.y) <= 2.0) return o;
+    }
+}
+
+Ray camera_ray(const Camera &c, Real px, Real py) {
+    const Vec3 local = normalize(Vec3((1.0 - 2.0 * px / c.width) * c.tan_half_x,
+                                      (1.0 - 2.0 * py / c.height) * c.tan_half_y, 1.0));
+    const Vec3 d = normalize(c.to_world.vector(local));
+    return Ray{c.to_world.point(Vec3(0.0)), d, c.near_clip / local.z, c.far_clip / local.z};
+}
+
+}  // namespace
+
+RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
+                   RenderProgress &progress) {
+    const auto start = std::chrono::steady_clock::now();
+    const Camera &cam = scene.camera;
+    const int tiles_x = (cam.width + kTileSize - 1) / kTileSize;
+    progress.tiles_total = tile_count(cam);
+    std::atomic<int64_t> next_tile{0};
+    std::atomic<uint64_t> nonfinite{0};
+
+    auto worker = [&] {
+        uint64_t local_nonfinite = 0;
+        for (;;) {
+            const int64_t tile = next_tile.fetch_add(1);
+            if (tile >= progress.tiles_total || progress.cancel.load(std::memory_order_relaxed)) break;
+            const int x0 = int(tile % tiles_x) * kTileSize, y0 = int(tile / tiles_x) * kTileSize;
+            for (int y = y0; y < std::min(y0 + kTileSize, cam.height); ++y) {
+                for (int x = x0; x < std::min(x0 + kTileSize, cam.width); ++x) {
+                    if (progress.cancel.load(std::memory_order_relaxed)) break;
+                    const uint64_t pixel = uint64_t(y) * cam.width + x;
+                    Spectrum sum(0.0);
+                    for (int s = 0; s < settings.spp; ++s) {
+                        Sampler sampler(settings.seed, pixel, uint64_t(s));
+                        const Vec2 o = filter_offset(cam, sampler);
+                        const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);
+                        const Spectrum L = radiance(scene, ray, cam.medium, sampler, settings.tracer);
+                        if (is_finite(L)) {
+                            sum += L;
+                        } else {
+                            ++local_nonfinite;
+                        }
+                    }
+                    const Spectrum mean = sum / Real(std::max(settings.spp, 1));
+                    float *out = image + pixel * 3;
+                    out[0] = float(mean.x), out[1] = float(mean.y), out[2] = float(mean.z);
+                }
+            }
+            progress.tiles_done.fetch_add(1);
+        }
+        nonfinite.fetch_add(local_nonfinite);
+    };
+
+    int n_threads = settings.threads > 0 ? settings.threads : int(std::thread::hardware_concurrency());
+    n_threads = std::max(1, std::min<int>(n_threads, int(progress.tiles_total)));
+    std::vector<std::thread> pool;
+    for (int i = 1; i < n_threads; ++i) pool.emplace_back(worker);
+    worker();
+    for (auto &t : pool) t.join();
+
+    RenderStats stats;
+    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats.nonfinite_samples = nonfinite.load();
+    stats.cancelled = progress.cancel.load();
+    return stats;
+}
+
+}  // namespace volpath

@@ -1,0 +1,263 @@
+#include "volpath/geometry.h"
+
+namespace volpath {
+
+Real TriangleMesh::area(size_t i) const {
+    const auto &t = triangles[i];
+    return 0.5 * length(cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]));
+}
+
+// With o' = o - c and a unit d, the roots of t^2 + 2 b t + c' = 0 (b = o'.d).
+// c' = |o'|^2 - r^2 is formed as (|o'| - r)(|o'| + r), and the discriminant from the
+// distance f of the line to the centre, r^2 - |f|^2, so that neither cancels when the
+// ray starts a metre above a 6360 km planet or grazes it. The smaller-magnitude root
+// comes from c'/q with q = -b - sign(b) sqrt(disc).
+bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0,
+                  Real &t1) {
+    const Vec3 oc = o - center;
+    const Real b = dot(oc, d);
+    const Real dist = length(oc);
+    const Real c = (dist - radius) * (dist + radius);
+    const Real f = length(oc - d * b);
+    const Real disc = (radius - f) * (radius + f);
+    if (disc < 0) return false;
+    const Real q = -b - std::copysign(std::sqrt(disc), b);
+    if (q == 0) {
+        t0 = t1 = 0;
+        return true;
+    }
+    t0 = c / q, t1 = q;
+    if (t0 > t1) std::swap(t0, t1);
+    return true;
+}
+
+int Geometry::add_mesh(TriangleMesh mesh) {
+    meshes.push_back(std::move(mesh));
+    shapes.push_back({false, int(meshes.size()) - 1});
+    return int(shapes.size()) - 1;
+}
+
+int Geometry::add_sphere(const Sphere &sphere) {
+    spheres.push_back(sphere);
+    shapes.push_back({true, int(spheres.size()) - 1});
+    return int(shapes.size()) - 1;
+}
+
+Bounds Geometry::primitive_bounds(const Primitive &p) const {
+    Bounds b;
+    const ShapeGeometry &s = shapes[p.shape];
+    if (s.is_sphere) {
+        const Sphere &sp = spheres[s.index];
+        b.extend(sp.center - Vec3(sp.radius));
+        b.extend(sp.center + Vec3(sp.radius));
+    } else {
+        const TriangleMesh &m = meshes[s.index];
+        for (uint32_t v : m.triangles[p.index]) b.extend(m.positions[v]);
+    }
+    return b;
+}
+
+void Geometry::build() {
+    prims_.clear();
+    nodes_.clear();
+    for (int s = 0; s < int(shapes.size()); ++s) {
+        if (shapes[s].is_sphere) {
+            prims_.push_back({s, 0});
+        } else {
+            const auto &m = meshes[shapes[s].index];
+            for (uint32_t i = 0; i < m.triangles.size(); ++i) {
+                if (m.area(i) > 0) prims_.push_back({s, i});  // degenerate triangles never hit
+            }
+        }
+    }
+    if (prims_.empty()) return;
+    std::vector<Bounds> bounds(prims_.size());
+    std::vector<Vec3> centroids(prims_.size());
+    for (size_t i = 0; i < prims_.size(); ++i) {
+        bounds[i] = primitive_bounds(prims_[i]);
+        centroids[i] = bounds[i].centroid();
+    }
+    nodes_.reserve(2 * prims_.size());
+    build_recursive(bounds, centroids, 0, uint32_t(prims_.size()));
+}
+
+// Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
+uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
+                                   uint32_t begin, uint32_t end) {
+    const uint32_t node_index = uint32_t(nodes_.size());
+    nodes_.emplace_back();
+    Bounds node_bounds, centroid_bounds;
+    for (uint32_t i = begin; i < end; ++i) {
+        node_bounds.extend(bounds[i]);
+        centroid_bounds.extend(centroids[i]);
+    }
+    nodes_[node_index].bounds = node_bounds;
+    const uint32_t count = end - begin;
+    auto make_leaf = [&] {
+        nodes_[node_index].first = begin;
+        nodes_[node_index].count = uint16_t(count);
+        return node_index;
+    };
+    if (count <= 2) return make_leaf();
+
+    const Vec3 extent = centroid_bounds.hi - centroid_bounds.lo;
+    int axis = 0;
+    if (extent.y > extent[axis]) axis = 1;
+    if (extent.z > extent[axis]) axis = 2;
+    if (!(extent[axis] > 0)) {
+        if (count <= 8) return make_leaf();
+        // All centroids coincide: split in the middle of the list.
+        const uint32_t mid = begin + count / 2;
+        nodes_[node_index].axis = uint8_t(axis);
+        build_recursive(bounds, centroids, begin, mid);
+        nodes_[node_index].first = build_recursive(bounds, centroids, mid, end);
+        return node_index;
+    }
+
+    constexpr int kBins = 16;
+    struct Bin {
+        Bounds b;
+        uint32_t n = 0;
+    } bins[kBins];
+    const Real lo = centroid_bounds.lo[axis], scale = kBins / extent[axis];
+    auto bin_of = [&](uint32_t i) {
+        return std::min(kBins - 1, int((centroids[i][axis] - lo) * scale));
+    };
+    for (uint32_t i = begin; i < end; ++i) {
+        Bin &bin = bins[bin_of(i)];
+        bin.b.extend(bounds[i]);
+        ++bin.n;
+    }
+    Real cost[kBins - 1];
+    Bounds left;
+    uint32_t n_left = 0;
+    for (int i = 0; i < kBins - 1; ++i) {
+        left.extend(bins[i].b);
+        n_left += bins[i].n;
+        cost[i] = n_left ? n_left * left.surface_area() : 0.0;
+    }
+    Bounds right;
+    uint32_t n_right = 0;
+    for (int i = kBins - 1; i > 0; --i) {
+        right.extend(bins[i].b);
+        n_right += bins[i].n;
+        if (n_right) cost[i - 1] += n_right * right.surface_area();
+    }
+    int best = 0;
+    for (int i = 1; i < kBins - 1; ++i)
+        if (cost[i] < cost[best]) best = i;
+    // Relative cost of a leaf: intersecting `count` primitives versus traversing.
+    const Real leaf_cost = count * node_bounds.surface_area();
+    const Real split_cost = 0.125 * node_bounds.surface_area() + cost[best];
+    if (count <= 4 && leaf_cost <= split_cost) return make_leaf();
+
+    // Partition in place.
+    uint32_t mid = begin;
+    for (uint32_t i = begin; i < end; ++i) {
+        if (bin_of(i) <= best) {
+            std::swap(prims_[i], prims_[mid]);
+            std::swap(bounds[i], bounds[mid]);
+            std::swap(centroids[i], centroids[mid]);
+            ++mid;
+        }
+    }
+    if (mid == begin || mid == end) mid = begin + count / 2;
+    nodes_[node_index].axis = uint8_t(axis);
+    build_recursive(bounds, centroids, begin, mid);
+    nodes_[node_index].first = build_recursive(bounds, centroids, mid, end);
+    return node_index;
+}
+
+bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, Real t_max,
+                                   Intersection &its) const {
+    const ShapeGeometry &s = shapes[prim.shape];
+    if (s.is_sphere) {
+        const Sphere &sp = spheres[s.index];
+        Real t0, t1;
+        if (!sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1)) return false;
+        Real t = t0 > ray.t_min ? t0 : t1;
+        if (!(t > ray.t_min && t < t_max)) return false;
+        const Vec3 n = normalize(ray.at(t) - sp.center);
+        its.t = t;
+        its.p = sp.center + n * sp.radius;  // re-projected onto the surface
+        its.n = its.ns = sp.flip_normals ? -n : n;
+    } else {
+        // Moeller-Trumbore, in double.
+        const TriangleMesh &m = meshes[s.index];
+        const auto &tri = m.triangles[prim.index];
+        const Vec3 &p0 = m.positions[tri[0]];
+        const Vec3 e1 = m.positions[tri[1]] - p0, e2 = m.positions[tri[2]] - p0;
+        const Vec3 pvec = cross(ray.d, e2);
+        const Real det = dot(e1, pvec);
+        if (det == 0) return false;
+        const Real inv_det = 1.0 / det;
+        const Vec3 tvec = ray.o - p0;
+        const Real u = dot(tvec, pvec) * inv_det;
+        if (u < 0 || u > 1) return false;
+        const Vec3 qvec = cross(tvec, e1);
+        const Real v = dot(ray.d, qvec) * inv_det;
+        if (v < 0 || u + v > 1) return false;
+        const Real t = dot(e2, qvec) * inv_det;
+        if (!(t > ray.t_min && t < t_max)) return false;
+        its.t = t;
+        its.p = p0 + e1 * u + e2 * v;
+        its.n = normalize(cross(e1, e2));
+        its.ns = its.n;
+        if (!m.normals.empty()) {
+            const Vec3 ns = m.normals[tri[0]] * (1 - u - v) + m.normals[tri[1]] * u +
+                            m.normals[tri[2]] * v;
+            const Real len = length(ns);
+            if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
+        }
+    }
+    its.shape = prim.shape;
+    its.prim = prim.index;
+    return true;
+}
+
+bool Geometry::intersect(const Ray &ray, Intersection &its) const {
+    if (nodes_.empty()) return false;
+    // A zero component would give 0 * inf = NaN in the slab test; a tiny one does not.
+    auto inv = [](Real d) { return 1.0 / (d == 0 ? 1e-300 : d); };
+    const Vec3 inv_d{inv(ray.d.x), inv(ray.d.y), inv(ray.d.z)};
+    const bool negative[3] = {inv_d.x < 0, inv_d.y < 0, inv_d.z < 0};
+    Real t_max = ray.t_max;
+    bool hit = false;
+    uint32_t stack[64];
+    int top = 0;
+    uint32_t current = 0;
+    for (;;) {
+        const Node &node = nodes_[current];
+        const Vec3 t0 = (node.bounds.lo - ray.o) * inv_d, t1 = (node.bounds.hi - ray.o) * inv_d;
+        const Real t_near = std::max({std::min(t0.x, t1.x), std::min(t0.y, t1.y),
+                                      std::min(t0.z, t1.z), ray.t_min});
+        // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
+        const Real t_far = std::min({std::max(t0.x, t1.x), std::max(t0.y, t1.y),
+                                     std::max(t0.z, t1.z), t_max}) * (1 + 4e-16);
+        if (t_near <= t_far) {
+            if (node.count > 0) {
+                for (uint32_t i = 0; i < node.count; ++i) {
+                    if (intersect_primitive(prims_[node.first + i], ray, t_max, its)) {
+                        hit = true;
+                        t_max = its.t;
+                    }
+                }
+            } else {
+                // Near child first.
+                if (negative[node.axis]) {
+                    stack[top++] = current + 1;
+                    current = node.first;
+                } else {
+                    stack[top++] = node.first;
+                    current = current + 1;
+                }
+                continue;
+            }
+        }
+        if (top == 0) break;
+        current = stack[--top];
+    }
+    return hit;
+}
+
+}  // namespace volpath

@@ -1,0 +1,81 @@
+#include "volpath/scene.h"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace volpath {
+
+int Scene::add_bsdf(const BSDF &b) {
+    bsdfs.push_back(b);
+    return int(bsdfs.size()) - 1;
+}
+
+int Scene::add_medium(const Medium &m) {
+    media.push_back(m);
+    prepare_medium(media.back());
+    return int(media.size()) - 1;
+}
+
+int Scene::add_light(const Light &l) {
+    lights.push_back(l);
+    if (is_infinite(l)) environment_lights.push_back(int(lights.size()) - 1);
+    return int(lights.size()) - 1;
+}
+
+namespace {
+void check_info(const Scene &s, const ShapeInfo &info) {
+    auto check = [](int i, size_t n, const char *what) {
+        if (i < -1 || i >= int(n)) throw std::out_of_range(std::string("invalid ") + what + " index");
+    };
+    check(info.bsdf, s.bsdfs.size(), "bsdf");
+    check(info.interior, s.media.size(), "interior medium");
+    check(info.exterior, s.media.size(), "exterior medium");
+    if (info.bsdf < 0) throw std::invalid_argument("a shape needs a bsdf");
+}
+}  // namespace
+
+int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance) {
+    check_info(*this, info);
+    for (const auto &t : mesh.triangles)
+        for (uint32_t v : t)
+            if (v >= mesh.positions.size()) throw std::out_of_range("triangle index out of range");
+    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+        throw std::invalid_argument("need one normal per vertex");
+    const int id = geometry.add_mesh(std::move(mesh));
+    shapes.push_back(info);
+    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0});
+    built = false;
+    return id;
+}
+
+int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance) {
+    check_info(*this, info);
+    if (!(s.radius > 0)) throw std::invalid_argument("sphere radius must be positive");
+    const int id = geometry.add_sphere(s);
+    shapes.push_back(info);
+    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0});
+    built = false;
+    return id;
+}
+
+void Scene::build() {
+    geometry.build();
+    for (Light &l : lights) prepare_light(l, geometry);
+    if (camera.medium >= int(media.size())) throw std::out_of_range("invalid camera medium");
+    built = true;
+}
+
+bool Scene::has_heterogeneous_media() const {
+    for (const Medium &m : media)
+        if (!is_homogeneous(m)) return true;
+    return false;
+}
+
+std::string Scene::describe() const {
+    std::ostringstream s;
+    s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, "
+      << media.size() << " media, " << lights.size() << " lights";
+    return s.str();
+}
+
+}  // namespace volpath

@@ -1,0 +1,95 @@
+"""Closed-form oracles: analytic transmittance and white furnaces."""
+
+import math
+
+import numpy as np
+import pytest
+import volpath
+from volpath.testing import render_batches
+
+import scenes as S
+
+SCATTERING_TRACERS = ["multiple", "nee_mis", "null_scattering"]
+
+
+def expected_absorption(res, fov, sigma_t, cam_z=5.0, radius=1.0, sub=24):
+    """exp(-sigma_t * chord) averaged over each pixel (sub x sub midpoint rule), with
+    the per-pixel spread of the integrand (what one uniformly jittered sample varies by)."""
+    t = math.tan(math.radians(fov) / 2)
+    u = (np.arange(res * sub) + 0.5) / (res * sub)
+    # Mitsuba's camera: +x of the camera is the image's left; lookat from +z towards 0.
+    x = (1 - 2 * u) * t
+    X, Y = np.meshgrid(x, x[::-1][::-1], indexing="xy")
+    d = np.stack([-X, Y, -np.ones_like(X)], axis=-1)  # world directions (camera looks down -z)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    o = np.array([0, 0, cam_z])
+    b = d @ o
+    disc = b ** 2 - (o @ o - radius ** 2)
+    chord = 2 * np.sqrt(np.maximum(disc, 0))
+    T = np.exp(-sigma_t * chord)
+    T = T.reshape(res, sub, res, sub)
+    return T.mean(axis=(1, 3)), T.std(axis=(1, 3))
+
+
+@pytest.mark.parametrize("tracer", volpath.TRACERS)
+def test_absorbing_sphere_matches_closed_form(tracer):
+    res, fov, sigma_t, spp = 24, 30, 1.5, 64
+    xml = S.scene(S.camera(res=res, fov=fov, spp=spp), S.homogeneous("m", f"{sigma_t}", "0"),
+                  S.medium_sphere("m"), S.back_light(z=-3, size=10))
+    scene = volpath.load_string(xml)
+    image = volpath.render(scene, tracer=tracer, seed=3)
+    mean, spread = expected_absorption(res, fov, sigma_t)
+    # The only randomness is where in the pixel each sample lands: the standard error is
+    # the within-pixel spread over sqrt(spp). 6 standard errors (plus float32 rounding)
+    # over 576 pixels leaves a false-alarm rate below 1e-6.
+    tol = 6 * spread / math.sqrt(spp) + 1e-5
+    assert np.all(np.abs(image[..., 0] - mean) <= tol)
+    assert np.allclose(image[..., 0], image[..., 1]) and np.allclose(image[..., 0], image[..., 2])
+    # The centre pixel sees the full diameter: close to exp(-2 sigma_t).
+    assert abs(mean[res // 2, res // 2] - math.exp(-2 * sigma_t)) < 0.02
+
+
+@pytest.mark.parametrize("tracer", SCATTERING_TRACERS)
+def test_white_furnace_homogeneous(tracer):
+    """An albedo-1 medium under a uniform unit environment returns exactly 1 everywhere."""
+    xml = S.scene(S.camera(res=8, fov=40, spp=32), S.homogeneous("m", "2, 0.5, 4", "1", g=0.6),
+                  S.medium_sphere("m"), S.constant_env("1, 1, 1"))
+    scene = volpath.load_string(xml)
+    mean, se = render_batches(volpath.render, scene, 4, tracer=tracer)
+    assert np.all(np.isfinite(mean))
+    # Pixel means over 4 batches x 32 spp; 5 standard errors of the whole-image mean.
+    image_mean = mean.mean(axis=(0, 1))
+    image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
+    assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)
+
+
+def test_white_furnace_heterogeneous_grid(tmp_path):
+    """The same furnace with a random chromatic density grid, through null scattering."""
+    rng = np.random.default_rng(7)
+    density = rng.uniform(0, 1, size=(6, 5, 4, 3)).astype(np.float32)
+    volpath_grid = tmp_path / "d.vol"
+    from volpath.grids import write_vol
+
+    write_vol(volpath_grid, density)
+    xml = S.scene(S.camera(res=8, fov=40, spp=32), f"""
+        <medium type="heterogeneous" id="m">
+            <volume type="gridvolume" name="sigma_t"><string name="filename" value="d.vol"/>
+                <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>
+            <float name="albedo" value="1"/><float name="scale" value="3"/>
+        </medium>""", S.medium_cube("m"), S.constant_env())
+    scene = volpath.load_string(xml, base_dir=str(tmp_path))
+    mean, se = render_batches(volpath.render, scene, 4, tracer="null_scattering")
+    image_mean = mean.mean(axis=(0, 1))
+    image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
+    assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)
+
+
+def test_energy_is_not_gained_with_absorption():
+    """With albedo < 1 the furnace must return less than the environment."""
+    xml = S.scene(S.camera(res=8, fov=40, spp=64), S.homogeneous("m", "3", "0.8"),
+                  S.medium_sphere("m"), S.constant_env())
+    scene = volpath.load_string(xml)
+    for tracer in SCATTERING_TRACERS:
+        image = volpath.render(scene, tracer=tracer)
+        assert np.all(np.isfinite(image)) and image.min() >= 0
+        assert image[2:6, 2:6].mean() < 0.95

@@ -1,0 +1,16 @@
+"""Volpath: a physically based volumetric path tracer.
+
+    import volpath
+    scene = volpath.load_file("scene.xml", spp=16)
+    image = volpath.render(scene, seed=1)          # float32 (height, width, 3)
+    volpath.write_exr("out.exr", image)
+"""
+
+from .errors import RenderCancelled, SceneError
+from .exr import read_exr, write_exr
+from .render import render
+from .scene import TRACERS, Scene, load_dict, load_file, load_string
+
+__version__ = "0.1.0"
+__all__ = ["RenderCancelled", "Scene", "SceneError", "TRACERS", "load_dict", "load_file", "load_string",
+           "read_exr", "render", "write_exr", "__version__"]

@@ -1,0 +1,129 @@
+"""Command line: ``python -m volpath render|info ...``."""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+from . import __version__
+from .errors import SceneError
+from .exr import write_exr
+from .render import render
+from .scene import TRACERS, load_file
+
+
+def _params(defines, parser):
+    params = {}
+    for d in defines or []:
+        if "=" not in d:
+            parser.error(f"-D expects name=value, got '{d}'")
+        k, v = d.split("=", 1)
+        params[k.strip()] = v.strip()
+    return params
+
+
+def _render(args, parser):
+    from tqdm import tqdm
+
+    scene = load_file(args.scene, **_params(args.define, parser))
+    out = args.output
+    if os.path.dirname(out) and not os.path.isdir(os.path.dirname(out)):
+        parser.error(f"output directory '{os.path.dirname(out)}' does not exist")
+    spp = args.spp or scene.spp
+    tracer = args.tracer or scene.tracer
+    bar = tqdm(total=100, unit="%", desc=f"{scene.width}x{scene.height} {spp} spp {tracer}",
+               disable=args.quiet, bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
+
+    def progress(fraction):
+        bar.n = round(100 * fraction, 1)
+        bar.refresh()
+        return True
+
+    start = time.perf_counter()
+    try:
+        image = render(scene, spp=spp, seed=args.seed, threads=args.threads, tracer=tracer, progress=progress,
+                       max_depth=args.max_depth)
+    finally:
+        bar.close()
+    seconds = time.perf_counter() - start
+    stats = scene.last_render
+    write_exr(out, image, metadata={"volpath_version": __version__, "spp": spp, "tracer": tracer,
+                                    "seed": args.seed, "seconds": seconds,
+                                    "nonfinite_samples": stats["nonfinite_samples"]})
+    print(f"{out}: {scene.width}x{scene.height}, {spp} spp, tracer {tracer}, {seconds:.2f} s, "
+          f"{stats['nonfinite_samples']} non-finite samples discarded")
+
+
+def _info(args, parser):
+    scene = load_file(args.scene, **_params(args.define, parser))
+    s = scene.summary
+    if args.json:
+        print(json.dumps({"settings": {"spp": scene.spp, "tracer": scene.tracer, "max_depth": scene.max_depth,
+                                       "rr_depth": scene.rr_depth}, **s}, indent=2))
+        return
+    cam = s["camera"]
+    print(f"{args.scene}")
+    print(f"  film      {cam['width']}x{cam['height']}, fov {cam['fov']:.2f} ({cam['fov_axis']}), "
+          f"camera at {', '.join(f'{v:g}' for v in cam['origin'])}"
+          + (f", inside medium {cam['medium']}" if cam["medium"] >= 0 else ""))
+    print(f"  settings  {scene.spp} spp, tracer {scene.tracer}, max_depth {scene.max_depth}, rr_depth {scene.rr_depth}")
+    print(f"  shapes    {len(s['shapes'])}")
+    for sh in s["shapes"]:
+        extra = f"{sh['triangles']} triangles" if "triangles" in sh else f"radius {sh['radius']:g}"
+        print(f"    {sh['type']:<10} {extra}{', emitter' if sh['emitter'] else ''}")
+    print(f"  media     {len(s['media'])}")
+    for m in s["media"]:
+        tau = m.get("optical_thickness")
+        tau_text = f", optical thickness {tau[0]:.3g}..{tau[1]:.3g}" if tau else ""
+        if m["type"] == "homogeneous":
+            print(f"    [{m['index']}] homogeneous sigma_t {[round(v, 6) for v in m['sigma_t']]}, "
+                  f"albedo {[round(v, 4) for v in m['albedo']]}, g {m['g']}{tau_text}")
+        else:
+            lo, hi = m["sigma_t_range"]
+            print(f"    [{m['index']}] heterogeneous {'x'.join(map(str, m['resolution']))} grid, "
+                  f"sigma_t {lo:.3g}..{hi:.3g}, g {m['g']}{tau_text}")
+    print(f"  emitters  {len(s['emitters'])}")
+    for e in s["emitters"]:
+        print(f"    {e['type']}")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="volpath", description="Volpath volumetric path tracer")
+    parser.add_argument("--version", action="version", version=f"volpath {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("render", help="render a scene to an EXR file")
+    r.add_argument("scene")
+    r.add_argument("-o", "--output", required=True, help="output .exr file")
+    r.add_argument("--spp", type=int, help="samples per pixel (default: the scene's)")
+    r.add_argument("--tracer", choices=TRACERS, help="default: the scene's integrator")
+    r.add_argument("--threads", type=int, help="default: all cores")
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--max-depth", type=int, help="path segments (default: the scene's)")
+    r.add_argument("-D", "--define", action="append", metavar="NAME=VALUE", help="override a <default> parameter")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    i = sub.add_parser("info", help="print what a scene contains")
+    i.add_argument("scene")
+    i.add_argument("-D", "--define", action="append", metavar="NAME=VALUE")
+    i.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "render":
+            if args.spp is not None and args.spp < 1:
+                parser.error("--spp must be at least 1")
+            if args.threads is not None and args.threads < 1:
+                parser.error("--threads must be at least 1")
+            _render(args, parser)
+        else:
+            _info(args, parser)
+    except (SceneError, ValueError) as e:
+        print(f"volpath: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("volpath: interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

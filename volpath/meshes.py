@@ -1,0 +1,189 @@
+"""Triangle meshes from Wavefront OBJ and PLY (ASCII and binary) files, as numpy arrays."""
+
+import os
+
+import numpy as np
+
+from .errors import SceneError
+
+
+def load_mesh(path):
+    """Return (positions (n,3) float64, triangles (m,3) uint32, normals (n,3) or None)."""
+    if not os.path.exists(path):
+        raise SceneError(f"{path}: mesh file not found")
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".obj":
+        return load_obj(path)
+    if ext == ".ply":
+        return load_ply(path)
+    raise SceneError(f"{path}: unknown mesh format '{ext}' (expected .obj or .ply)")
+
+
+def _check(path, positions, triangles, normals):
+    n = len(positions)
+    if n == 0 or len(triangles) == 0:
+        raise SceneError(f"{path}: the mesh has no triangles")
+    if triangles.min() < 0 or triangles.max() >= n:
+        raise SceneError(f"{path}: a face refers to a vertex that does not exist (vertices: {n})")
+    if not np.all(np.isfinite(positions)):
+        raise SceneError(f"{path}: vertex positions must be finite")
+    if normals is not None and (len(normals) != n or not np.all(np.isfinite(normals))):
+        normals = None
+    return positions.astype(np.float64), triangles.astype(np.uint32), normals
+
+
+def load_obj(path):
+    """OBJ: v, vn and f (polygons fan-triangulated; negative indices allowed)."""
+    v, vn, corners, faces = [], [], {}, []
+    out_pos, out_nrm = [], []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for line_no, line in enumerate(f, 1):
+            parts = line.split()
+            if not parts or parts[0].startswith("#"):
+                continue
+            try:
+                if parts[0] == "v":
+                    v.append([float(x) for x in parts[1:4]])
+                elif parts[0] == "vn":
+                    vn.append([float(x) for x in parts[1:4]])
+                elif parts[0] == "f":
+                    idx = []
+                    for c in parts[1:]:
+                        fields = c.split("/")
+                        pi = int(fields[0])
+                        pi = pi - 1 if pi > 0 else len(v) + pi
+                        ni = -1
+                        if len(fields) >= 3 and fields[2]:
+                            ni = int(fields[2])
+                            ni = ni - 1 if ni > 0 else len(vn) + ni
+                        if not (0 <= pi < len(v)) or ni >= len(vn):
+                            raise SceneError(f"{path}:{line_no}: face refers to a missing vertex")
+                        key = (pi, ni)
+                        if key not in corners:
+                            corners[key] = len(out_pos)
+                            out_pos.append(v[pi])
+                            out_nrm.append(vn[ni] if ni >= 0 else None)
+                        idx.append(corners[key])
+                    if len(idx) < 3:
+                        raise SceneError(f"{path}:{line_no}: a face needs at least 3 vertices")
+                    faces.extend([idx[0], idx[i], idx[i + 1]] for i in range(1, len(idx) - 1))
+            except (ValueError, IndexError):
+                raise SceneError(f"{path}:{line_no}: malformed '{parts[0]}' line (expected numbers)") from None
+    positions = np.array(out_pos, dtype=np.float64).reshape(-1, 3)
+    normals = None
+    if out_nrm and all(n is not None for n in out_nrm):
+        normals = np.array(out_nrm, dtype=np.float64)
+    return _check(path, positions, np.array(faces, dtype=np.int64).reshape(-1, 3), normals)
+
+
+_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
+              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+
+
+def load_ply(path):
+    """PLY: vertex x,y,z (nx,ny,nz) and face vertex_indices lists, any encoding."""
+    with open(path, "rb") as f:
+        data = f.read()
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        raise SceneError(f"{path}: not a PLY file (missing 'ply' magic or 'end_header')")
+    header = data[:end].decode("ascii", errors="replace").splitlines()
+    body_start = data.index(b"\n", end) + 1
+    fmt, elements = None, []
+    for line in header[1:]:
+        p = line.split()
+        if not p:
+            continue
+        if p[0] == "format":
+            fmt = p[1]
+        elif p[0] == "element":
+            elements.append({"name": p[1], "count": int(p[2]), "props": []})
+        elif p[0] == "property":
+            if not elements:
+                raise SceneError(f"{path}: property before any element")
+            if p[1] == "list":
+                elements[-1]["props"].append((p[4], "list", _PLY_TYPES.get(p[2]), _PLY_TYPES.get(p[3])))
+            else:
+                elements[-1]["props"].append((p[2], _PLY_TYPES.get(p[1]), None, None))
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        raise SceneError(f"{path}: unknown PLY format '{fmt}'")
+    for el in elements:
+        for name, t, a, b in el["props"]:
+            if t is None or (t == "list" and (a is None or b is None)):
+                raise SceneError(f"{path}: unknown type of property '{name}'")
+    positions = normals = faces = None
+    if fmt == "ascii":
+        tokens = data[body_start:].split()
+        pos = 0
+        for el in elements:
+            rows = []
+            for _ in range(el["count"]):
+                row = {}
+                for name, t, _a, _b in el["props"]:
+                    if t == "list":
+                        k = int(tokens[pos]); pos += 1
+                        row[name] = [int(x) for x in tokens[pos:pos + k]]; pos += k
+                    else:
+                        row[name] = float(tokens[pos]); pos += 1
+                rows.append(row)
+            if el["name"] == "vertex":
+                positions = np.array([[r["x"], r["y"], r["z"]] for r in rows])
+                if rows and "nx" in rows[0]:
+                    normals = np.array([[r["nx"], r["ny"], r["nz"]] for r in rows])
+            elif el["name"] == "face":
+                faces = [r.get("vertex_indices", r.get("vertex_index")) for r in rows]
+    else:
+        order = "<" if fmt == "binary_little_endian" else ">"
+        buf, pos = data, body_start
+        for el in elements:
+            props = el["props"]
+            if all(t != "list" for _, t, _, _ in props):
+                dt = np.dtype([(name, order + t) for name, t, _, _ in props])
+                arr = np.frombuffer(buf, dtype=dt, count=el["count"], offset=pos)
+                pos += dt.itemsize * el["count"]
+                if el["name"] == "vertex":
+                    positions = np.stack([arr["x"], arr["y"], arr["z"]], axis=1).astype(np.float64)
+                    if "nx" in arr.dtype.names:
+                        normals = np.stack([arr["nx"], arr["ny"], arr["nz"]], axis=1).astype(np.float64)
+            else:
+                rows = []
+                for _ in range(el["count"]):
+                    row = {}
+                    for name, t, a, b in props:
+                        if t == "list":
+                            k = int(np.frombuffer(buf, order + a, 1, pos)[0]); pos += np.dtype(a).itemsize
+                            row[name] = np.frombuffer(buf, order + b, k, pos); pos += k * np.dtype(b).itemsize
+                        else:
+                            row[name] = np.frombuffer(buf, order + t, 1, pos)[0]; pos += np.dtype(t).itemsize
+                    rows.append(row)
+                if el["name"] == "face":
+                    faces = [r.get("vertex_indices", r.get("vertex_index")) for r in rows]
+    if positions is None or faces is None:
+        raise SceneError(f"{path}: PLY file needs 'vertex' and 'face' elements")
+    tris = [[f[0], f[i], f[i + 1]] for f in faces for i in range(1, len(f) - 1)]
+    return _check(path, positions, np.array(tris, dtype=np.int64).reshape(-1, 3), normals)
+
+
+def write_ply(path, positions, triangles, normals=None):
+    """Binary little-endian PLY (what the exporter writes)."""
+    positions = np.asarray(positions, np.float32)
+    triangles = np.asarray(triangles, np.uint32)
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(positions)}",
+              "property float x", "property float y", "property float z"]
+    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    if normals is not None:
+        header += ["property float nx", "property float ny", "property float nz"]
+        fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
+    header += [f"element face {len(triangles)}", "property list uchar uint vertex_indices", "end_header"]
+    verts = np.empty(len(positions), dtype=fields)
+    verts["x"], verts["y"], verts["z"] = positions.T
+    if normals is not None:
+        verts["nx"], verts["ny"], verts["nz"] = np.asarray(normals, np.float32).T
+    faces = np.empty(len(triangles), dtype=[("n", "u1"), ("i", "<u4", 3)])
+    faces["n"], faces["i"] = 3, triangles
+    with open(path, "wb") as f:
+        f.write(("\n".join(header) + "\n").encode("ascii"))
+        f.write(verts.tobytes())
+        f.write(faces.tobytes())
+

@@ -1,0 +1,46 @@
+"""Rendering: ``render(scene, ...)`` returns linear radiance as a float32 numpy array."""
+
+import os
+
+from . import _core
+from .errors import RenderCancelled
+from .scene import TRACERS
+
+
+def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None):
+    """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
+
+    spp        samples per pixel (default: the scene's sampler ``sample_count``)
+    seed       the same seed gives a bit-identical image whatever the thread count
+    threads    worker threads (default: all cores)
+    tracer     one of absorption, single, multiple, nee_mis, null_scattering
+               (default: the tracer the scene's integrator names)
+    progress   callable(fraction_done) called about 20 times a second from the calling
+               thread; returning False cancels the render (raises RenderCancelled)
+    max_depth  path segments, as Mitsuba counts them (default: the scene's)
+
+    The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
+    Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
+    """
+    tracer = tracer or scene.tracer
+    if tracer not in TRACERS:
+        raise ValueError(f"unknown tracer '{tracer}' (expected one of: {', '.join(TRACERS)})")
+    spp = scene.spp if spp is None else int(spp)
+    if spp < 1:
+        raise ValueError(f"spp must be at least 1, got {spp}")
+    threads = 0 if threads is None else int(threads)
+    if threads < 0:
+        raise ValueError(f"threads must be positive, got {threads}")
+    max_depth = scene.max_depth if max_depth is None else int(max_depth)
+    if max_depth == 0 or max_depth < -1:
+        raise ValueError("max_depth must be -1 (unlimited) or at least 1")
+    if not 0 <= int(seed) < 2**64:
+        raise ValueError("seed must be in [0, 2**64)")
+    image, stats = _core.render(scene.native, spp, int(seed), threads, TRACERS.index(tracer), max_depth,
+                                scene.rr_depth, scene.max_null_collisions, progress)
+    stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth,
+                 threads=threads or os.cpu_count())
+    scene.last_render = stats
+    if stats["cancelled"]:
+        raise RenderCancelled(image)
+    return image

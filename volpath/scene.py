@@ -1,0 +1,793 @@
+"""The scene model: a Mitsuba-style scene dictionary turned into the native scene.
+
+``load_file``/``load_string`` read XML into the dictionary (xml_reader.py); ``load_dict``
+builds from a dictionary directly (the Blender exporter's path). Every unknown plugin or
+parameter is an error that names where it came from.
+"""
+
+import math
+import os
+
+import numpy as np
+
+from . import _core
+from .errors import SceneError, where
+from .grids import read_vol
+from .meshes import load_mesh
+from .xml_reader import read_xml
+
+TRACERS = ("absorption", "single", "multiple", "nee_mis", "null_scattering")
+# lajolla's integrator `version` numbering of its staged tracers.
+LAJOLLA_VERSIONS = {1: "absorption", 2: "single", 3: "multiple", 4: "nee_mis", 5: "nee_mis",
+                    6: "null_scattering"}
+INTEGRATORS = {"volpath": "null_scattering", "volpathmis": "null_scattering", "path": "nee_mis"}
+
+# Named indices of refraction (Mitsuba's table, the common entries).
+IOR = {"vacuum": 1.0, "air": 1.000277, "water": 1.3330, "water ice": 1.31, "fused quartz": 1.458,
+       "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
+       "sodium chloride": 1.544, "amber": 1.55, "pet": 1.575, "diamond": 2.419}
+
+# Wavelengths (nm) at which sampled spectra are read for the R, G and B channels.
+RGB_WAVELENGTHS = (680.0, 550.0, 440.0)
+
+
+class Scene:
+    """A loaded scene: the native scene plus the file's render settings.
+
+    Attributes: ``spp``, ``max_depth``, ``rr_depth``, ``max_null_collisions``,
+    ``tracer`` (the integrator's tracer), ``width``, ``height``, ``summary`` (what the
+    scene contains, for ``volpath info``) and, after a render, ``last_render``
+    (seconds, non-finite sample count, ...).
+    """
+
+    def __init__(self, native, settings, summary, source):
+        self.native = native
+        self.spp = settings["spp"]
+        self.max_depth = settings["max_depth"]
+        self.rr_depth = settings["rr_depth"]
+        self.max_null_collisions = settings["max_null_collisions"]
+        self.tracer = settings["tracer"]
+        self.summary = summary
+        self.source = source
+        self.last_render = None
+
+    @property
+    def width(self):
+        return self.native.width
+
+    @property
+    def height(self):
+        return self.native.height
+
+    def __repr__(self):
+        return (f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
+                f"tracer={self.tracer}, max_depth={self.max_depth}>")
+
+
+def load_file(path, **params):
+    """Load a Mitsuba 3 (or 0.5/0.6 / lajolla) XML scene. Keyword arguments override the
+    file's ``<default>`` parameters, as ``mi.load_file`` does."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise SceneError(f"{path}: scene file not found")
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    d = read_xml(text, path, params)
+    return load_dict(d, base_dir=os.path.dirname(os.path.abspath(path)), source=path)
+
+
+def load_string(xml, base_dir=".", **params):
+    """Load a scene from XML text; relative file names are resolved against base_dir."""
+    d = read_xml(xml, "<string>", params)
+    return load_dict(d, base_dir=base_dir, source="<string>")
+
+
+def load_dict(d, base_dir=".", source=None):
+    """Build a scene from a Mitsuba-style dictionary ({'type': 'scene', ...})."""
+    if not isinstance(d, dict) or d.get("type") != "scene":
+        raise SceneError("expected a scene dictionary with 'type': 'scene'")
+    return _Builder(d, base_dir, source).build()
+
+
+# ----------------------------------------------------------------------------------------
+# Parameter access with bookkeeping: whatever a plugin does not read is an error.
+
+class _Params:
+    def __init__(self, d, kind):
+        self.d, self.kind = d, kind
+        self.loc = d.get("__loc__")
+        self.type = d.get("type")
+        self.read = {"type", "__loc__", "__id__", "__kind__", "__old__"}
+
+    def error(self, msg):
+        return SceneError(f"{where(self.loc)}{self.kind} '{self.type}': {msg}")
+
+    def has(self, name):
+        return name in self.d
+
+    def raw(self, name, default=None):
+        self.read.add(name)
+        return self.d.get(name, default)
+
+    def float(self, name, default=None, positive=False, minimum=None):
+        v = self.raw(name, default)
+        if v is None:
+            raise self.error(f"missing float '{name}'")
+        if isinstance(v, dict) and v.get("type") == "spectrum" and not isinstance(v["value"], list):
+            v = v["value"]
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+            raise self.error(f"'{name}' must be a float, got {_describe(v)}")
+        v = float(v)
+        if not math.isfinite(v):
+            raise self.error(f"'{name}' must be finite, got {v}")
+        if positive and v <= 0:
+            raise self.error(f"'{name}' must be positive, got {v}")
+        if minimum is not None and v < minimum:
+            raise self.error(f"'{name}' must be at least {minimum}, got {v}")
+        return v
+
+    def int(self, name, default=None):
+        v = self.raw(name, default)
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+            raise self.error(f"'{name}' must be an integer, got {_describe(v)}")
+        return int(v)
+
+    def bool(self, name, default=None):
+        v = self.raw(name, default)
+        if not isinstance(v, (bool, np.bool_)):
+            raise self.error(f"'{name}' must be a boolean, got {_describe(v)}")
+        return bool(v)
+
+    def str(self, name, default=None, choices=None):
+        v = self.raw(name, default)
+        if not isinstance(v, str):
+            raise self.error(f"'{name}' must be a string, got {_describe(v)}")
+        if choices and v not in choices:
+            raise self.error(f"'{name}' is '{v}', expected one of: {', '.join(choices)}")
+        return v
+
+    def rgb(self, name, default=None, nonnegative=True):
+        v = self.raw(name, default)
+        rgb = _to_rgb(v)
+        if rgb is None:
+            raise self.error(f"'{name}' must be a float, rgb or spectrum, got {_describe(v)}")
+        if not np.all(np.isfinite(rgb)) or (nonnegative and np.any(rgb < 0)):
+            raise self.error(f"'{name}' must be finite and non-negative, got {list(rgb)}")
+        return rgb
+
+    def vec3(self, name, default=None):
+        v = self.raw(name, default)
+        arr = np.asarray(v, dtype=np.float64) if v is not None else None
+        if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
+            raise self.error(f"'{name}' must be a 3-vector, got {_describe(v)}")
+        return arr
+
+    def transform(self, name="to_world"):
+        v = self.raw(name)
+        if v is None:
+            return np.eye(4)
+        m = np.asarray(v, dtype=np.float64)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise self.error(f"'{name}' must be a 4x4 transform")
+        if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+            raise self.error(f"'{name}' is singular")
+        return m
+
+    def check(self):
+        unknown = [k for k in self.d if k not in self.read]
+        if unknown:
+            raise self.error(f"unexpected parameter(s) {', '.join(repr(k) for k in unknown)}")
+
+
+def _describe(v):
+    if isinstance(v, dict):
+        return f"a {v.get('type', 'dictionary')}"
+    return repr(v)
+
+
+def _to_rgb(v):
+    if isinstance(v, bool):
+        return None
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        return np.full(3, float(v))
+    if isinstance(v, dict):
+        if v.get("type") == "rgb":
+            return np.asarray(v["value"], dtype=np.float64).reshape(3)
+        if v.get("type") == "spectrum":
+            s = v["value"]
+            if not isinstance(s, list):
+                return np.full(3, float(s))
+            wl = np.array([p[0] for p in s])
+            val = np.array([p[1] for p in s])
+            return np.interp(RGB_WAVELENGTHS, wl, val)
+    if isinstance(v, (list, tuple, np.ndarray)) and np.asarray(v).shape == (3,):
+        return np.asarray(v, dtype=np.float64)
+    return None
+
+
+def _transform_points(m, p):
+    return p @ m[:3, :3].T + m[:3, 3]
+
+
+def _transform_normals(m, n):
+    out = n @ np.linalg.inv(m[:3, :3])  # (M^-T n) for row vectors
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    return out / np.where(norm > 0, norm, 1)
+
+
+def _rectangle():
+    p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=np.float64)
+    return p, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
+
+
+def _cube():
+    positions, triangles = [], []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            u, v = [(axis + 1) % 3, (axis + 2) % 3]
+            base = len(positions)
+            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                p = [0.0, 0.0, 0.0]
+                p[axis], p[u], p[v] = sign, a, b
+                positions.append(p)
+            # counter-clockwise seen from outside
+            triangles += [[base, base + 1, base + 2], [base, base + 2, base + 3]] if sign > 0 else \
+                [[base, base + 2, base + 1], [base, base + 3, base + 2]]
+    return np.array(positions), np.array(triangles, dtype=np.uint32)
+
+
+class _Builder:
+    def __init__(self, d, base_dir, source):
+        self.d, self.base_dir, self.source = d, base_dir, source
+        self.old = bool(d.get("__old__", False))
+        self.native = _core.Scene()
+        self.ids = {}
+        self._index_ids(d)
+        self.media = {}   # id(dict) -> native index
+        self.bsdfs = {}
+        self.building = set()
+        self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
+        self.medium_bounds = {}  # native medium index -> list of bounding boxes
+
+    def _index_ids(self, d):
+        for k, v in d.items():
+            if isinstance(v, dict) and v.get("type") != "ref":
+                if "__id__" in v:
+                    if v["__id__"] in self.ids:
+                        raise SceneError(f"{where(v.get('__loc__'))}id '{v['__id__']}' is used twice")
+                    self.ids[v["__id__"]] = v
+                self._index_ids(v)
+        # Top-level keys of a dictionary scene act as ids too (Mitsuba's load_dict).
+        if d is self.d:
+            for k, v in d.items():
+                if isinstance(v, dict) and not k.startswith("__") and v.get("type") != "ref":
+                    self.ids.setdefault(k, v)
+
+    def resolve(self, v):
+        seen = 0
+        while isinstance(v, dict) and v.get("type") == "ref":
+            if v["id"] not in self.ids:
+                raise SceneError(f"{where(v.get('__loc__'))}reference to unknown id '{v['id']}'")
+            v = self.ids[v["id"]]
+            seen += 1
+            if seen > 64:
+                raise SceneError(f"{where(v.get('__loc__'))}cyclic reference")
+        return v
+
+    def path(self, p, name):
+        filename = p.str(name)
+        full = filename if os.path.isabs(filename) else os.path.join(self.base_dir, filename)
+        if not os.path.exists(full):
+            raise p.error(f"file '{filename}' not found (looked in {self.base_dir})")
+        return full
+
+    # -- top level -----------------------------------------------------------------------
+    def build(self):
+        scene = _Params(self.d, "scene")
+        integrator, sensor = None, None
+        items = [(k, v) for k, v in self.d.items() if not k.startswith("__") and k != "type"]
+        for key, v in items:
+            scene.read.add(key)
+            if not isinstance(v, dict):
+                raise SceneError(f"{where(self.d.get('__loc__'))}scene: unexpected value '{key}'")
+            kind = _kind(v)
+            if kind == "integrator":
+                integrator = v
+            elif kind == "sensor":
+                if sensor is not None:
+                    raise SceneError(f"{where(v.get('__loc__'))}only one sensor is supported")
+                sensor = v
+        for key, v in items:
+            kind = _kind(v)
+            if kind == "shape":
+                self.shape(v)
+            elif kind == "emitter":
+                self.emitter(v)
+            elif kind in ("bsdf", "medium", "texture", "integrator", "sensor", "phase", "volume"):
+                pass  # built where referenced
+            else:
+                raise SceneError(f"{where(v.get('__loc__'))}unknown plugin type '{v.get('type')}'")
+        settings = self.integrator(integrator)
+        settings["spp"] = self.sensor(sensor)
+        # Declared media and BSDFs that nothing references are still checked.
+        for key, v in items:
+            if _kind(v) == "medium":
+                self.medium(v)
+            elif _kind(v) == "bsdf":
+                self.bsdf(v)
+        scene.check()
+        self.native.build()
+        self.summarise_media()
+        return Scene(self.native, settings, self.summary, self.source)
+
+    def integrator(self, d):
+        settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "tracer": "null_scattering"}
+        if d is None:
+            return settings
+        p = _Params(d, "integrator")
+        if p.type not in INTEGRATORS:
+            raise p.error(f"unknown integrator (expected one of: {', '.join(INTEGRATORS)})")
+        settings["tracer"] = INTEGRATORS[p.type]
+        if p.has("version"):
+            version = p.int("version")
+            if version not in LAJOLLA_VERSIONS:
+                raise p.error(f"'version' must be 1..6 (lajolla's tracers), got {version}")
+            settings["tracer"] = LAJOLLA_VERSIONS[version]
+        settings["max_depth"] = p.int("max_depth", -1)
+        if settings["max_depth"] < -1 or settings["max_depth"] == 0:
+            raise p.error("'max_depth' must be -1 (unlimited) or at least 1")
+        settings["rr_depth"] = p.int("rr_depth", 5)
+        if settings["rr_depth"] < 1:
+            raise p.error("'rr_depth' must be at least 1")
+        settings["max_null_collisions"] = p.int("max_null_collisions", 1000)
+        p.raw("hide_emitters", False)  # accepted, but emitters are always visible
+        if p.raw("hide_emitters", False):
+            raise p.error("'hide_emitters' is not supported")
+        p.check()
+        return settings
+
+    def sensor(self, d):
+        if d is None:
+            raise SceneError(f"{self.source or '<dict>'}: the scene has no sensor (camera)")
+        p = _Params(d, "sensor")
+        if p.type not in ("perspective", "thinlens"):
+            raise p.error("unknown sensor (expected 'perspective')")
+        film = sampler = medium = None
+        for key in list(d):
+            v = d[key]
+            if isinstance(v, dict) and key not in ("to_world",):
+                r = self.resolve(v)
+                k = _kind(r)
+                if k == "film":
+                    film = r
+                elif k == "sampler":
+                    sampler = r
+                elif k == "medium":
+                    medium = r
+                else:
+                    continue
+                p.read.add(key)
+        width, height, gaussian = 768, 576, True
+        if film is not None:
+            fp = _Params(film, "film")
+            if fp.type != "hdrfilm":
+                raise fp.error("unknown film (expected 'hdrfilm')")
+            width, height = fp.int("width", 768), fp.int("height", 576)
+            if not (1 <= width <= 1 << 15 and 1 <= height <= 1 << 15):
+                raise fp.error(f"film size {width}x{height} out of range (1..32768)")
+            fp.raw("pixel_format"), fp.raw("component_format"), fp.raw("file_format"), fp.raw("banner")
+            fp.raw("high_quality_edges")
+            rfilter = None
+            for key in list(film):
+                if isinstance(film[key], dict) and _kind(film[key]) == "rfilter":
+                    rfilter = film[key]
+                    fp.read.add(key)
+            if rfilter is not None:
+                rp = _Params(rfilter, "rfilter")
+                if rp.type not in ("box", "gaussian"):
+                    raise rp.error("unknown reconstruction filter (expected 'box' or 'gaussian')")
+                if rp.type == "gaussian" and rp.float("stddev", 0.5) != 0.5:
+                    raise rp.error("only the default stddev 0.5 is supported")
+                rp.check()
+                gaussian = rp.type == "gaussian"
+            fp.check()
+        spp = 4
+        if sampler is not None:
+            sp = _Params(sampler, "sampler")
+            if sp.type not in ("independent", "stratified", "multijitter", "ldsampler", "orthogonal"):
+                raise sp.error("unknown sampler")
+            spp = sp.int("sample_count", 4)
+            sp.raw("seed"), sp.raw("jitter")
+            if spp < 1:
+                raise sp.error("'sample_count' must be at least 1")
+            sp.check()
+        to_world = p.transform()
+        if p.has("fov"):
+            fov = p.float("fov")
+            if not 0 < fov < 180:
+                raise p.error(f"'fov' must be in (0, 180) degrees, got {fov}")
+            axis = p.str("fov_axis", "x", ("x", "y", "smaller", "larger", "diagonal"))
+        else:
+            focal = p.str("focal_length", "50mm").rstrip("m")
+            try:
+                f = float(focal)
+            except ValueError:
+                raise p.error(f"malformed 'focal_length' {focal!r} (expected e.g. '50mm')") from None
+            fov, axis = math.degrees(2 * math.atan(math.hypot(36, 24) / (2 * f))), "diagonal"
+        t = math.tan(math.radians(fov) / 2)
+        if axis == "smaller":
+            axis = "x" if width <= height else "y"
+        elif axis == "larger":
+            axis = "x" if width >= height else "y"
+        if axis == "x":
+            tx, ty = t, t * height / width
+        elif axis == "y":
+            tx, ty = t * width / height, t
+        else:
+            diag = math.hypot(width, height)
+            tx, ty = t * width / diag, t * height / diag
+        near, far = p.float("near_clip", 1e-2, positive=True), p.float("far_clip", 1e4, positive=True)
+        if far <= near:
+            raise p.error("'far_clip' must exceed 'near_clip'")
+        p.raw("shutter_open"), p.raw("shutter_close"), p.raw("principal_point_offset_x"), p.raw("principal_point_offset_y")
+        p.check()
+        # Remove scale from the camera frame: directions are normalised by the core.
+        medium_index = self.medium(medium) if medium is not None else -1
+        self.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian)
+        self.summary["camera"] = {"width": width, "height": height, "fov": fov, "fov_axis": axis,
+                                  "origin": to_world[:3, 3].tolist(), "medium": medium_index}
+        return spp
+
+    # -- BSDFs ---------------------------------------------------------------------------
+    def bsdf(self, d, twosided=False):
+        d = self.resolve(d)
+        key = (id(d), twosided)
+        if key in self.bsdfs:
+            return self.bsdfs[key]
+        if id(d) in self.building:
+            raise SceneError(f"{where(d.get('__loc__'))}cyclic bsdf definition")
+        self.building.add(id(d))
+        p = _Params(d, "bsdf")
+        n = self.native
+        if p.type == "twosided":
+            inner = [k for k, v in d.items() if isinstance(v, dict) and _kind(self.resolve(v)) == "bsdf"]
+            if len(inner) != 1:
+                raise p.error("expected exactly one nested bsdf")
+            p.read.add(inner[0])
+            index = self.bsdf(d[inner[0]], twosided=True)
+        elif p.type == "null":
+            index = n.add_bsdf_null()
+        elif p.type == "diffuse":
+            index = n.add_bsdf_diffuse(self.reflectance(p, "reflectance", 0.5), twosided)
+        elif p.type in ("dielectric", "thindielectric"):
+            if p.type == "thindielectric":
+                raise p.error("thin dielectrics are not supported (use 'dielectric')")
+            eta = self.ior(p, "int_ior", 1.5046) / self.ior(p, "ext_ior", 1.000277)
+            p.raw("specular_reflectance"), p.raw("specular_transmittance")
+            index = n.add_bsdf_dielectric(eta)
+        elif p.type in ("roughplastic", "plastic"):
+            dist = p.str("distribution", "ggx", ("ggx", "beckmann"))
+            if dist != "ggx":
+                raise p.error("only the 'ggx' distribution is supported")
+            alpha = p.float("alpha", 0.1 if p.type == "roughplastic" else 0.001, minimum=0.0)
+            eta = self.ior(p, "int_ior", 1.49) / self.ior(p, "ext_ior", 1.000277)
+            p.raw("nonlinear"), p.raw("sample_visible")
+            index = n.add_bsdf_roughplastic(self.reflectance(p, "diffuse_reflectance", 0.5),
+                                            self.reflectance(p, "specular_reflectance", 1.0),
+                                            max(alpha, 1e-3), eta, twosided)
+        elif p.type == "principled":
+            # Mapped onto the rough plastic: base colour under a GGX coat; metals tint the coat.
+            base = self.reflectance(p, "base_color", 0.5)
+            metallic = p.float("metallic", 0.0, minimum=0.0)
+            roughness = p.float("roughness", 0.5, minimum=0.0)
+            eta = p.float("eta", 1.5, positive=True)
+            for ignored in ("specular", "spec_tint", "anisotropic", "sheen", "sheen_tint", "clearcoat",
+                            "clearcoat_gloss", "spec_trans", "flatness"):
+                p.raw(ignored)
+            specular = (1 - metallic) * np.ones(3) + metallic * base
+            index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness ** 2, 1e-3),
+                                            eta, twosided)
+        else:
+            raise p.error("unknown bsdf (expected one of: null, diffuse, dielectric, roughplastic, "
+                          "principled, twosided)")
+        p.check()
+        self.building.discard(id(d))
+        self.bsdfs[key] = index
+        return index
+
+    def reflectance(self, p, name, default):
+        v = p.raw(name, default)
+        if isinstance(v, dict) and _kind(v) == "texture":
+            raise p.error(f"textures are not supported for '{name}' (give an rgb)")
+        rgb = p.rgb(name, default)
+        return rgb
+
+    def ior(self, p, name, default):
+        v = p.raw(name, default)
+        if isinstance(v, str):
+            if v.lower() not in IOR:
+                raise p.error(f"unknown material '{v}' for '{name}' (expected a number or one of: {', '.join(IOR)})")
+            return IOR[v.lower()]
+        return p.float(name, default, positive=True)
+
+    # -- media -----------------------------------------------------------------------------
+    def phase(self, p, d):
+        phases = [k for k, v in d.items() if isinstance(v, dict) and _kind(self.resolve(v)) == "phase"]
+        if len(phases) > 1:
+            raise p.error("more than one phase function")
+        if not phases:
+            return 0.0
+        p.read.add(phases[0])
+        pp = _Params(self.resolve(d[phases[0]]), "phase")
+        if pp.type == "isotropic":
+            g = 0.0
+        elif pp.type == "hg":
+            g = pp.float("g", 0.8)
+            if not -1 < g < 1:
+                raise pp.error(f"'g' must be in (-1, 1), got {g}")
+        else:
+            raise pp.error("unknown phase function (expected 'isotropic' or 'hg')")
+        pp.check()
+        return g
+
+    def medium(self, d):
+        d = self.resolve(d)
+        if id(d) in self.media:
+            return self.media[id(d)]
+        p = _Params(d, "medium")
+        g = self.phase(p, d)
+        p.raw("sample_emitters"), p.raw("has_spectral_extinction")
+        scale = p.float("scale", 1.0, minimum=0.0)
+        if p.type == "homogeneous":
+            if p.has("sigma_a") or p.has("sigma_s"):  # Mitsuba 0.5 / lajolla
+                sigma_a, sigma_s = p.rgb("sigma_a", 0.0) * scale, p.rgb("sigma_s", 0.0) * scale
+            else:
+                sigma_t = p.rgb("sigma_t", 1.0) * scale
+                albedo = p.rgb("albedo", 0.75)
+                if np.any(albedo > 1):
+                    raise p.error(f"'albedo' must be at most 1, got {list(albedo)}")
+                sigma_s = sigma_t * albedo
+                sigma_a = sigma_t - sigma_s
+            index = self.native.add_medium_homogeneous(tuple(sigma_a), tuple(sigma_s), g)
+            self.summary["media"].append({"index": index, "type": "homogeneous", "sigma_t": (sigma_a + sigma_s).tolist(),
+                                          "albedo": np.divide(sigma_s, sigma_a + sigma_s, out=np.zeros(3), where=(sigma_a + sigma_s) > 0).tolist(),
+                                          "g": g, "loc": p.loc})
+        elif p.type == "heterogeneous":
+            name = "density" if p.has("density") else "sigma_t"
+            density, to_world = self.volume(p, name, 1.0)
+            albedo_v = p.raw("albedo", 0.75)
+            albedo_grid, albedo = None, np.ones(3)
+            if isinstance(self.resolve(albedo_v), dict) and _kind(self.resolve(albedo_v)) == "volume":
+                grid, albedo_to_world = self.volume(p, "albedo", 0.75)
+                if grid.shape[:3] == (1, 1, 1):
+                    albedo = np.broadcast_to(grid.reshape(-1), (3,)).astype(np.float64) if grid.shape[3] == 1 \
+                        else grid.reshape(3).astype(np.float64)
+                else:
+                    if not np.allclose(albedo_to_world, to_world):
+                        raise p.error("the albedo grid must have the same to_world and bounding box as the density grid")
+                    albedo_grid = grid
+            else:
+                albedo = p.rgb("albedo", 0.75)
+            if np.any(albedo > 1) or (albedo_grid is not None and albedo_grid.max() > 1):
+                raise p.error("'albedo' must be at most 1")
+            world_to_grid = np.linalg.inv(to_world)
+            index = self.native.add_medium_grid(density, albedo_grid, tuple(albedo), scale, world_to_grid, g)
+            self.summary["media"].append({"index": index, "type": "heterogeneous",
+                                          "sigma_t_range": [float(density.min() * scale), float(density.max() * scale)],
+                                          "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc})
+        else:
+            raise p.error("unknown medium (expected 'homogeneous' or 'heterogeneous')")
+        p.check()
+        self.media[id(d)] = index
+        return index
+
+    def volume(self, p, name, default):
+        """A volume parameter as (grid (z,y,x,c) float32, grid-to-world 4x4)."""
+        v = p.raw(name, default)
+        v = self.resolve(v)
+        if not isinstance(v, dict) or _kind(v) != "volume":
+            rgb = _to_rgb(v)
+            if rgb is None:
+                raise p.error(f"'{name}' must be a volume, float or rgb")
+            grid = (np.float32(rgb[0]) * np.ones((1, 1, 1, 1), np.float32)) if np.all(rgb == rgb[0]) \
+                else rgb.astype(np.float32).reshape(1, 1, 1, 3)
+            return grid, np.eye(4)
+        vp = _Params(v, "volume")
+        if vp.type == "constvolume":
+            rgb = vp.rgb("value", 1.0)
+            vp.check()
+            grid = rgb.astype(np.float32).reshape(1, 1, 1, 3)
+            return grid, np.eye(4)
+        if vp.type != "gridvolume":
+            raise vp.error("unknown volume (expected 'gridvolume' or 'constvolume')")
+        path = self.path(vp, "filename")
+        filter_type = vp.str("filter_type", "trilinear", ("trilinear", "nearest"))
+        if filter_type != "trilinear":
+            raise vp.error("only 'trilinear' filtering is supported")
+        to_world = vp.transform()
+        use_bbox = vp.bool("use_grid_bbox", self.old)
+        vp.raw("raw"), vp.raw("accel")
+        vp.check()
+        data, bbox = read_vol(path)
+        if use_bbox:
+            lo, hi = bbox
+            if np.any(hi <= lo):
+                raise vp.error(f"{path}: empty bounding box in the grid file")
+            box = np.eye(4)
+            box[:3, :3] = np.diag(hi - lo)
+            box[:3, 3] = lo
+            to_world = to_world @ box
+        return data, to_world
+
+    # -- shapes ------------------------------------------------------------------------------
+    def shape(self, d):
+        p = _Params(d, "shape")
+        to_world = p.transform()
+        bsdf_index, radiance, interior, exterior = None, None, -1, -1
+        for key, v in d.items():
+            if not isinstance(v, dict) or key == "to_world":
+                continue
+            r = self.resolve(v)
+            kind = _kind(r)
+            if kind == "bsdf":
+                if bsdf_index is not None:
+                    raise p.error("more than one bsdf")
+                bsdf_index = self.bsdf(r)
+            elif kind == "emitter":
+                ep = _Params(r, "emitter")
+                if ep.type != "area":
+                    raise ep.error("only 'area' emitters can be attached to shapes")
+                radiance = ep.rgb("radiance", 1.0)
+                ep.check()
+            elif kind == "medium":
+                if key not in ("interior", "exterior"):
+                    raise p.error(f"medium '{key}' must be named 'interior' or 'exterior'")
+                if key == "interior":
+                    interior = self.medium(r)
+                else:
+                    exterior = self.medium(r)
+            else:
+                continue
+            p.read.add(key)
+        if bsdf_index is None:
+            bsdf_index = self._default_bsdf()
+        medium_interface = p.has("interior") or p.has("exterior")
+        common = dict(bsdf=bsdf_index, interior=interior, exterior=exterior, medium_interface=medium_interface,
+                      radiance=None if radiance is None else tuple(radiance))
+        flip = p.bool("flip_normals", False)
+        if p.type == "sphere":
+            center = _transform_points(to_world, p.vec3("center", [0, 0, 0])[None])[0]
+            radius = p.float("radius", 1.0, positive=True)
+            lin = to_world[:3, :3]
+            scales = np.linalg.norm(lin, axis=0)
+            if not np.allclose(scales, scales[0], rtol=1e-6) or not np.allclose(lin.T @ lin, np.diag(scales ** 2), atol=1e-9 * scales.max() ** 2):
+                raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
+            radius *= scales[0]
+            self.native.add_sphere(tuple(center), radius, flip, **common)
+            bounds = np.array([center - radius, center + radius])
+            self.summary["shapes"].append({"type": "sphere", "center": center.tolist(), "radius": radius,
+                                           "emitter": radiance is not None, "loc": p.loc})
+        else:
+            normals = None
+            if p.type == "rectangle":
+                positions, triangles = _rectangle()
+            elif p.type == "cube":
+                positions, triangles = _cube()
+            elif p.type in ("obj", "ply"):
+                path = self.path(p, "filename")
+                positions, triangles, normals = load_mesh(path)
+                if p.bool("face_normals", False):
+                    normals = None
+            else:
+                raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply)")
+            positions = _transform_points(to_world, positions)
+            if normals is not None:
+                normals = _transform_normals(to_world, normals)
+            if flip:
+                triangles = triangles[:, ::-1].copy()
+                if normals is not None:
+                    normals = -normals
+            self.native.add_mesh(positions, triangles, normals, **common)
+            bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
+            self.summary["shapes"].append({"type": p.type, "triangles": int(len(triangles)),
+                                           "emitter": radiance is not None, "loc": p.loc})
+        if interior >= 0:
+            self.medium_bounds.setdefault(interior, []).append(bounds)
+        if radiance is not None:
+            self.summary["emitters"].append({"type": "area", "radiance": radiance.tolist(), "loc": p.loc})
+        p.check()
+
+    def _default_bsdf(self):
+        key = ("default", False)
+        if key not in self.bsdfs:
+            self.bsdfs[key] = self.native.add_bsdf_diffuse((0.5, 0.5, 0.5), False)
+        return self.bsdfs[key]
+
+    # -- emitters ------------------------------------------------------------------------------
+    def emitter(self, d):
+        p = _Params(d, "emitter")
+        n = self.native
+        info = {"type": p.type, "loc": p.loc}
+        if p.type == "point":
+            if p.has("position"):
+                pos = p.vec3("position")
+            else:
+                pos = p.transform()[:3, 3]
+            intensity = p.rgb("intensity", 1.0)
+            n.add_point_light(tuple(pos), tuple(intensity))
+            info.update(position=pos.tolist(), intensity=intensity.tolist())
+        elif p.type == "directional":
+            if p.has("direction"):
+                direction = p.vec3("direction")
+            else:
+                direction = p.transform()[:3, :3] @ np.array([0.0, 0.0, 1.0])
+            if np.linalg.norm(direction) == 0:
+                raise p.error("'direction' must not be zero")
+            irradiance = p.rgb("irradiance", 1.0)
+            n.add_directional_light(tuple(direction), tuple(irradiance))
+            info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
+        elif p.type == "constant":
+            radiance = p.rgb("radiance", 1.0)
+            n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4))
+            info.update(radiance=radiance.tolist())
+        elif p.type == "envmap":
+            from .exr import read_exr
+
+            path = self.path(p, "filename")
+            if not path.lower().endswith(".exr"):
+                raise p.error("environment maps must be OpenEXR files")
+            try:
+                image = read_exr(path)
+            except ValueError as e:
+                raise p.error(str(e)) from None
+            if not np.all(np.isfinite(image)) or image.min() < 0:
+                raise p.error(f"{path}: the environment map has negative or non-finite pixels")
+            scale = p.float("scale", 1.0, minimum=0.0)
+            to_world = p.transform()
+            n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world))
+            info.update(filename=path, resolution=list(image.shape[1::-1]))
+        elif p.type == "area":
+            raise p.error("an area emitter must be nested inside a shape")
+        else:
+            raise p.error("unknown emitter (expected one of: point, directional, constant, envmap, area)")
+        p.raw("sampling_weight")
+        p.check()
+        self.summary["emitters"].append(info)
+
+    def summarise_media(self):
+        for m in self.summary["media"]:
+            boxes = self.medium_bounds.get(m["index"])
+            if boxes:
+                lo = np.min([b[0] for b in boxes], axis=0)
+                hi = np.max([b[1] for b in boxes], axis=0)
+                m["extent"] = float(np.linalg.norm(hi - lo))
+                sig = m.get("sigma_t") or m.get("sigma_t_range")
+                m["optical_thickness"] = [float(min(sig)) * m["extent"], float(max(sig)) * m["extent"]]
+
+
+_KINDS = {
+    "integrator": {"volpath", "volpathmis", "path"},
+    "sensor": {"perspective", "thinlens"},
+    "film": {"hdrfilm"},
+    "sampler": {"independent", "stratified", "multijitter", "ldsampler", "orthogonal"},
+    "rfilter": {"box", "gaussian", "tent"},
+    "shape": {"sphere", "rectangle", "cube", "obj", "ply", "disk", "cylinder", "serialized"},
+    "bsdf": {"null", "diffuse", "dielectric", "thindielectric", "roughplastic", "plastic", "principled",
+             "twosided", "conductor", "roughconductor", "roughdielectric"},
+    "emitter": {"point", "directional", "constant", "envmap", "area", "spot"},
+    "medium": {"homogeneous", "heterogeneous"},
+    "phase": {"isotropic", "hg"},
+    "volume": {"gridvolume", "constvolume"},
+    "texture": {"bitmap", "checkerboard"},
+}
+
+
+def _kind(d):
+    """The plugin kind of an object dict: from the XML tag if known, else from its type."""
+    if "__kind__" in d:
+        return d["__kind__"]
+    t = d.get("type")
+    for kind, types in _KINDS.items():
+        if t in types:
+            return kind
+    return None
