@@ -31,7 +31,7 @@ $(VENV)/.requirements: requirements.txt | debian
 
 # The native module, rebuilt incrementally (build/) whenever a C++ source changes.
 $(VENV)/.native: $(VENV)/.requirements $(NATIVE_SOURCES) $(shell find volpath -name '*.py')
-	$(PIP) install -q --no-build-isolation --no-deps .
+	$(PIP) install -q --no-build-isolation --no-deps -e .
 	touch $@
 
 setup: debian $(VENV)/.native

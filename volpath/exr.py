@@ -65,17 +65,18 @@ def read_exr(path, metadata=False):
     if not os.path.exists(path):
         raise FileNotFoundError(f"{path}: no such EXR file")
     try:
+        # Copy everything out inside the block: closing the file empties its channel dict.
         with OpenEXR.File(path) as f:
-            header = f.header()
-            channels = f.channels()
+            channels = {name: np.array(c.pixels) for name, c in f.channels().items()}
+            header = dict(f.header())
     except Exception as e:  # the binding raises plain RuntimeErrors for bad files
         raise ValueError(f"{path}: not a readable EXR file ({e})") from e
     if "RGB" in channels or "RGBA" in channels:
-        img = channels["RGB" if "RGB" in channels else "RGBA"].pixels[..., :3]
+        img = channels["RGB" if "RGB" in channels else "RGBA"][..., :3]
     elif all(c in channels for c in "RGB"):
-        img = np.stack([channels[c].pixels for c in "RGB"], axis=-1)
-    elif len(channels) >= 1:
-        grey = next(iter(channels.values())).pixels
+        img = np.stack([channels[c] for c in "RGB"], axis=-1)
+    elif channels:
+        grey = next(iter(channels.values()))
         img = np.repeat(grey[..., None], 3, axis=-1) if grey.ndim == 2 else grey[..., :3]
     else:
         raise ValueError(f"{path}: EXR file has no channels")

@@ -1,0 +1,90 @@
+"""Chi-square goodness of fit: every direction sampler against its own pdf.
+
+Each test draws 200 000 samples into 800 equal-area bins and pools bins expecting fewer
+than 5. The null hypothesis (sampler and pdf agree) is rejected below p = 1e-4, so a
+correct sampler fails one run in ten thousand, while a pdf off by a few percent in
+any region fails every time.
+"""
+
+import numpy as np
+import pytest
+import volpath
+from volpath import _core
+from volpath.testing import chi2_directions
+
+import scenes as S
+
+N = 200_000
+P_MIN = 1e-4
+
+
+def uniforms(n, dims, seed=1):
+    return np.random.default_rng(seed).random((n, dims))
+
+
+@pytest.mark.parametrize("g", [-0.9, -0.3, 0.0, 0.5, 0.95])
+def test_phase_hg(g):
+    dirs, pdfs = _core.phase_sample(g, uniforms(N, 2))
+    # The sampled pdf equals the phase function (exact sampling).
+    mu = dirs[:, 2]
+    assert np.allclose(pdfs, [_core.phase_eval(g, m) for m in mu[:1000]] + list(pdfs[1000:]))
+    # Symmetric about the incident direction: the marginal of mu is 2 pi p(mu).
+    assert chi2_directions(dirs, None, N, z_marginal=lambda z: 2 * np.pi * _core.phase_eval(g, z)) > P_MIN
+
+
+def _light_scene(emitter_xml, extra=""):
+    return volpath.load_string(S.scene(S.camera(res=4), emitter_xml, extra))
+
+
+LIGHTS = {
+    "sphere_outside": ('<shape type="sphere"><point name="center" value="0.5, 1, 3"/><float name="radius" value="1.2"/>'
+                       '<emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>', (0, 0, 0)),
+    "sphere_inside": ('<shape type="sphere"><float name="radius" value="2"/><boolean name="flip_normals" value="true"/>'
+                      '<emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>', (0.3, -0.5, 0.2)),
+    "rectangle": ('<shape type="rectangle"><transform name="to_world"><scale x="2" y="1"/><rotate x="1" angle="30"/>'
+                  '<translate z="1.5"/></transform><emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>',
+                  (0.2, 0.1, 3.0)),
+    "constant": ('<emitter type="constant"><rgb name="radiance" value="1,1,1"/></emitter>', (0, 0, 0)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LIGHTS))
+def test_light_sampling(name):
+    xml, ref = LIGHTS[name]
+    scene = _light_scene(xml)
+    dirs, pdfs = _core.light_sample(scene.native, 0, ref, uniforms(N, 2))
+    ok = pdfs > 0
+    assert ok.mean() > 0.99
+    pdf = lambda d: _core.light_pdf(scene.native, 0, ref, d)
+    # The pdf the sampler reports equals the pdf of the same direction found by tracing.
+    assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
+    # 64 x 64 quadrature points per bin resolve the light's silhouette.
+    axis = np.mean(dirs[ok], axis=0)
+    assert chi2_directions(dirs[ok], pdf, N, sub=64, axis=axis) > P_MIN
+
+
+def test_envmap_sampling(tmp_path):
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0, 1, (16, 32, 3)).astype(np.float32) ** 4
+    img[4:6, 10:14] = 50  # a bright "sun"
+    volpath.write_exr(tmp_path / "env.exr", img)
+    scene = volpath.load_string(S.scene(S.camera(res=4), '<emitter type="envmap"><string name="filename" value="env.exr"/>'
+                                        '<transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>'),
+                                base_dir=str(tmp_path))
+    dirs, pdfs = _core.light_sample(scene.native, 0, (0, 0, 0), uniforms(N, 2))
+    ok = pdfs > 0
+    pdf = lambda d: _core.light_pdf(scene.native, 0, (0, 0, 0), d)
+    assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
+    assert chi2_directions(dirs[ok], pdf, N, sub=64) > P_MIN
+
+
+@pytest.mark.parametrize("wi", [(0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.95, 0.1, 0.3)])
+@pytest.mark.parametrize("bsdf", ['<bsdf type="diffuse"/>',
+                                  '<bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>'])
+def test_bsdf_sampling(bsdf, wi):
+    scene = volpath.load_string(S.scene(S.camera(res=4), f'<shape type="sphere">{bsdf}</shape>'))
+    dirs, pdfs = _core.bsdf_sample(scene.native, 0, wi, uniforms(N, 3))
+    ok = pdfs > 0
+    pdf = lambda d: _core.bsdf_pdf(scene.native, 0, wi, d)
+    assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
+    assert chi2_directions(dirs[ok], pdf, N) > P_MIN
