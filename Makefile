@@ -52,7 +52,7 @@ bench: setup $(VENV)/.bench
 # Until the sunrise pipeline lands, renders the bundled test scene to out/.
 sunrise: setup
 	mkdir -p out
-	$(PY) -m volpath render scenes/test/cornell_fog.xml -o out/sunrise_placeholder.exr --spp $(SPP)
+	$(PY) -m volpath render scenes/test/fog_box.xml -o out/sunrise_placeholder.exr --spp $(SPP) -D res=$(RES)
 
 clean:
 	rm -rf build out $(VENV)

@@ -1,0 +1,94 @@
+"""The Python API: determinism, cancellation, EXR I/O and the command line."""
+
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import volpath
+
+import scenes as S
+
+SCENE = S.scene(S.camera(res=40, spp=8), S.homogeneous("m", "2, 1, 0.5", "0.9, 0.8, 0.7", g=0.5),
+                S.medium_sphere("m"), S.floor(), S.area_light_above(), S.point_light(), S.constant_env("0.1, 0.1, 0.1"))
+
+
+@pytest.mark.parametrize("tracer", volpath.TRACERS)
+def test_same_seed_same_image_whatever_the_thread_count(tracer):
+    scene = volpath.load_string(SCENE)
+    one = volpath.render(scene, tracer=tracer, seed=5, threads=1)
+    two = volpath.render(scene, tracer=tracer, seed=5, threads=2)
+    many = volpath.render(scene, tracer=tracer, seed=5, threads=7)
+    assert one.dtype == np.float32 and one.shape == (40, 40, 3)
+    assert np.array_equal(one, two) and np.array_equal(one, many)
+    assert not np.array_equal(one, volpath.render(scene, tracer=tracer, seed=6, threads=2))
+
+
+def test_progress_callback_can_cancel_quickly():
+    scene = volpath.load_string(S.scene(S.camera(res=256, spp=4096), S.homogeneous("m", "5", "0.99"),
+                                        S.medium_sphere("m"), S.constant_env()))
+    calls = []
+
+    def progress(fraction):
+        calls.append(fraction)
+        return len(calls) < 3
+
+    start = time.perf_counter()
+    with pytest.raises(volpath.RenderCancelled) as e:
+        volpath.render(scene, progress=progress, threads=2)
+    assert time.perf_counter() - start < 1.5
+    assert e.value.image.shape == (256, 256, 3)
+    assert all(0 <= f <= 1 for f in calls)
+
+
+def test_progress_reaches_one():
+    scene = volpath.load_string(SCENE)
+    seen = []
+    volpath.render(scene, spp=2, progress=lambda f: seen.append(f))
+    assert seen[-1] == 1.0
+    assert scene.last_render["nonfinite_samples"] == 0 and scene.last_render["seconds"] > 0
+
+
+def test_bad_render_arguments():
+    scene = volpath.load_string(SCENE)
+    with pytest.raises(ValueError, match="unknown tracer"):
+        volpath.render(scene, tracer="magic")
+    with pytest.raises(ValueError, match="spp"):
+        volpath.render(scene, spp=0)
+
+
+def test_exr_round_trip(tmp_path):
+    img = np.random.default_rng(0).random((7, 9, 3)).astype(np.float32)
+    volpath.write_exr(tmp_path / "a.exr", img, metadata={"frame": 3, "spp": 16.0, "tracer": "nee_mis",
+                                                          "sun": (0.0, 0.5, -1.0)})
+    back, meta = volpath.read_exr(tmp_path / "a.exr", metadata=True)
+    assert np.array_equal(back, img)
+    assert meta["frame"] == 3 and meta["tracer"] == "nee_mis" and np.allclose(meta["sun"], (0, 0.5, -1))
+    volpath.write_exr(tmp_path / "h.exr", img, half=True)
+    assert np.allclose(volpath.read_exr(tmp_path / "h.exr"), img, atol=1e-3)
+    assert not [p for p in os.listdir(tmp_path) if ".tmp" in p]
+    (tmp_path / "broken.exr").write_bytes(b"not an exr")
+    with pytest.raises(ValueError, match="not a readable EXR"):
+        volpath.read_exr(tmp_path / "broken.exr")
+
+
+def run_cli(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "volpath", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_cli_render_and_info(tmp_path):
+    (tmp_path / "s.xml").write_text(SCENE.replace('<integrator', '<default name="res" value="8"/><integrator'))
+    out = tmp_path / "o.exr"
+    r = run_cli("render", str(tmp_path / "s.xml"), "-o", str(out), "--spp", "2", "--tracer", "nee_mis", "--threads", "1")
+    assert r.returncode == 0, r.stderr
+    assert "non-finite samples" in r.stdout and out.exists()
+    image, meta = volpath.read_exr(out, metadata=True)
+    assert image.shape == (40, 40, 3) and meta["tracer"] == "nee_mis" and meta["spp"] == 2
+    r = run_cli("info", str(tmp_path / "s.xml"))
+    assert r.returncode == 0 and "homogeneous" in r.stdout and "optical thickness" in r.stdout
+    r = run_cli("render", str(tmp_path / "missing.xml"), "-o", str(out))
+    assert r.returncode == 2 and "not found" in r.stderr
+    r = run_cli("render", str(tmp_path / "s.xml"), "-o", str(out), "--spp", "0")
+    assert r.returncode == 2 and "--spp" in r.stderr

@@ -1,0 +1,155 @@
+"""Scene loading: both spellings, parameters, meshes, and an error for every bad input."""
+
+import numpy as np
+import pytest
+import volpath
+from volpath.meshes import write_ply
+
+import scenes as S
+
+LAJOLLA = """<?xml version="1.0"?>
+<scene version="0.5.0">
+    <integrator type="volpath">
+        <integer name="maxDepth" value="6"/>
+        <integer name="rrDepth" value="3"/>
+        <integer name="version" value="4"/>
+        <integer name="maxNullCollisions" value="500"/>
+    </integrator>
+    <medium type="homogeneous" id="medium">
+        <rgb name="sigmaA" value="0.5 0.5 0.5"/>
+        <rgb name="sigmaS" value="1 1 1"/>
+        <float name="scale" value="2"/>
+        <phase type="hg"><float name="g" value="0.3"/></phase>
+    </medium>
+    <shape type="sphere">
+        <point name="center" x="0" y="0" z="0"/>
+        <float name="radius" value="1"/>
+        <ref name="interior" id="medium"/>
+        <bsdf type="null"/>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="1" y="3" z="1"/>
+        <float name="radius" value="0.3"/>
+        <emitter type="area"><srgb name="radiance" value="1, 1, 1"/></emitter>
+    </shape>
+    <sensor type="perspective">
+        <string name="fovAxis" value="y"/>
+        <transform name="toWorld"><lookAt origin="0, 0, -4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <float name="fov" value="45"/>
+        <sampler type="independent"><integer name="sampleCount" value="8"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="10"/>
+            <rfilter type="box"/></film>
+    </sensor>
+</scene>"""
+
+MITSUBA3 = S.scene(S.camera(res=12, spp=8), '<default name="sigma" value="2"/>',
+                   '<medium type="homogeneous" id="m"><float name="sigma_t" value="$sigma"/>'
+                   '<float name="albedo" value="0.5"/></medium>', S.medium_sphere("m"), S.point_light())
+
+
+def test_lajolla_spellings():
+    scene = volpath.load_string(LAJOLLA)
+    assert (scene.width, scene.height, scene.spp) == (12, 10, 8)
+    assert scene.tracer == "nee_mis" and scene.max_depth == 6 and scene.rr_depth == 3
+    assert scene.max_null_collisions == 500
+    m = scene.summary["media"][0]
+    assert np.allclose(m["sigma_t"], 3.0) and np.allclose(m["albedo"], 2 / 3) and m["g"] == 0.3
+    image = volpath.render(scene)
+    assert image.shape == (10, 12, 3) and np.isfinite(image).all() and image.max() > 0
+
+
+def test_mitsuba3_defaults_and_overrides():
+    scene = volpath.load_string(MITSUBA3)
+    assert scene.summary["media"][0]["sigma_t"] == [2.0] * 3
+    scene = volpath.load_string(MITSUBA3, sigma=5)
+    assert scene.summary["media"][0]["sigma_t"] == [5.0] * 3
+    assert scene.tracer == "null_scattering"
+
+
+def test_load_file_and_meshes(tmp_path):
+    p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    write_ply(tmp_path / "quad.ply", p, [[0, 1, 2], [0, 2, 3]])
+    (tmp_path / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n")
+    xml = S.scene(S.camera(res=8), '<default name="spp" value="4"/>',
+                  '<shape type="ply"><string name="filename" value="quad.ply"/>'
+                  '<emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>',
+                  '<shape type="obj"><string name="filename" value="quad.obj"/>'
+                  '<transform name="to_world"><translate z="-1"/></transform></shape>')
+    (tmp_path / "s.xml").write_text(xml)
+    scene = volpath.load_file(tmp_path / "s.xml")
+    assert [s["triangles"] for s in scene.summary["shapes"]] == [2, 2]
+    image = volpath.render(scene, spp=4)
+    # The emitting quad fills the view: radiance 1 where it is seen.
+    assert abs(image[4, 4, 0] - 1) < 1e-6
+
+
+def test_transforms_compose_in_order():
+    # scale then translate: the rectangle ends up 10 wide centred at z=-3.
+    xml = S.scene(S.camera(res=8, fov=10), S.back_light(z=-3, size=10, radiance="2, 2, 2"))
+    image = volpath.render(volpath.load_string(xml), spp=1)
+    assert np.allclose(image, 2.0)
+
+
+BAD = {
+    "unknown plugin": (S.scene(S.camera(), '<shape type="teapot"/>'), r"<string>:\d+: .*unknown shape"),
+    "unknown parameter": (S.scene(S.camera(), '<shape type="sphere"><float name="radios" value="1"/></shape>'),
+                          r"<string>:\d+: .*unexpected parameter.*radios"),
+    "malformed number": (S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="1.x"/></shape>'),
+                         r"<string>:\d+: malformed number '1.x'"),
+    "dangling ref": (S.scene(S.camera(), '<shape type="sphere"><ref name="interior" id="fog"/></shape>'),
+                     r"<string>:\d+: reference to unknown id 'fog'"),
+    "missing file": (S.scene(S.camera(), '<shape type="obj"><string name="filename" value="nope.obj"/></shape>'),
+                     r"<string>:\d+: .*'nope.obj' not found"),
+    "malformed xml": ("<scene version='3.0.0'><shape type='sphere'></scene>", r"<string>:1: malformed XML"),
+    "undefined parameter": (S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="$r"/></shape>'),
+                            r"<string>:\d+: undefined parameter \$r"),
+    "wrong type": (S.scene(S.camera(), '<shape type="sphere"><string name="radius" value="big"/></shape>'),
+                   r"<string>:\d+: .*'radius' must be a float"),
+    "no sensor": (S.scene('<shape type="sphere"/>'), r"no sensor"),
+    "bad rgb": (S.scene(S.camera(), '<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1, 2"/></bsdf></shape>'),
+                r"<string>:\d+: rgb '1, 2': expected 3 numbers"),
+    "negative radius": (S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="-1"/></shape>'),
+                        r"<string>:\d+: .*'radius' must be positive"),
+    "bad film": (S.scene(S.camera(res=0)), r"<string>:\d+: .*film size"),
+    "area emitter alone": (S.scene(S.camera(), '<emitter type="area"/>'), r"<string>:\d+: .*nested inside a shape"),
+    "unknown element": (S.scene(S.camera(), '<shape type="sphere"><colour name="x" value="1"/></shape>'),
+                        r"<string>:\d+: unknown element <colour>"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input_raises_scene_error(case):
+    xml, pattern = BAD[case]
+    with pytest.raises(volpath.SceneError, match=pattern):
+        volpath.load_string(xml)
+
+
+def test_error_names_the_file_and_line(tmp_path):
+    path = tmp_path / "bad.xml"
+    path.write_text('<scene version="3.0.0">\n\n  <shape type="sphere">\n    <float name="radius" value="abc"/>\n  </shape>\n</scene>\n')
+    with pytest.raises(volpath.SceneError) as e:
+        volpath.load_file(path)
+    assert str(e.value).startswith(f"{path}:4: malformed number 'abc'")
+
+
+def test_unused_override_is_an_error():
+    with pytest.raises(volpath.SceneError, match="neither declares nor uses"):
+        volpath.load_string(MITSUBA3, sigmaa=3)
+
+
+def test_bad_grid_files(tmp_path):
+    from volpath.grids import write_vol
+
+    write_vol(tmp_path / "ok.vol", np.ones((2, 2, 2)))
+    data = (tmp_path / "ok.vol").read_bytes()
+    (tmp_path / "short.vol").write_bytes(data[:-8])
+    write_vol(tmp_path / "nan.vol", np.full((2, 2, 2), np.nan))
+    write_vol(tmp_path / "neg.vol", -np.ones((2, 2, 2)))
+    huge = bytearray(data[:48])
+    huge[8:12] = (1 << 30).to_bytes(4, "little")
+    (tmp_path / "huge.vol").write_bytes(bytes(huge))
+    for name, msg in [("short", "truncated"), ("nan", "NaN"), ("neg", "negative"), ("huge", "larger than the limit")]:
+        xml = S.scene(S.camera(), f'<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
+                      f'<string name="filename" value="{name}.vol"/></volume></medium>', S.medium_cube("m"))
+        with pytest.raises(volpath.SceneError, match=msg):
+            volpath.load_string(xml, base_dir=str(tmp_path))
