@@ -4,6 +4,8 @@
 #include <pybind11/stl.h>
 
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <optional>
 #include <thread>
 
@@ -80,7 +82,9 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     progress.tiles_total = tile_count(scene.camera);
     RenderStats stats;
     std::exception_ptr failure;
-    std::atomic<bool> finished{false};
+    bool finished = false;
+    std::mutex mutex;
+    std::condition_variable done;
     bool python_error = false;
     {
         py::gil_scoped_release release;
@@ -90,11 +94,17 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
             } catch (...) {
                 failure = std::current_exception();
             }
+            std::lock_guard<std::mutex> lock(mutex);
             finished = true;
+            done.notify_all();
         });
-        // Poll for Ctrl-C and report progress while the workers run without the GIL.
-        while (!finished) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        // Poll for Ctrl-C and report progress while the workers run without the GIL,
+        // waking at once when the render ends.
+        for (;;) {
+            {
+                std::unique_lock<std::mutex> lock(mutex);
+                if (done.wait_for(lock, std::chrono::milliseconds(50), [&] { return finished; })) break;
+            }
             py::gil_scoped_acquire acquire;
             if (python_error) continue;
             if (PyErr_CheckSignals() != 0) {

@@ -1,0 +1,207 @@
+"""Time to equal error: Volpath against Mitsuba 3 on the bench scenes, in one run.
+
+For each scene: a high-spp Volpath reference; then each renderer renders at a ladder of
+sample counts (2 threads, the second of two renders timed, so Mitsuba's LLVM kernels are
+compiled beforehand) and its RMSE against the reference is fitted as RMSE = a * t^b on
+log-log axes. The target error is what the fastest Mitsuba variant reaches at
+--target-spp; the table gives the time each renderer needs for it, and the ratio.
+The highest-spp Mitsuba image also checks that the two renderers agree: the part of its
+error that noise does not explain is reported as bias.
+"""
+
+import argparse
+import datetime
+import os
+import platform
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+if os.path.exists(LLVM):
+    os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
+
+import volpath  # noqa: E402
+
+SCENES = {
+    "a": ("absorbing_sphere", "σt=1 sphere absorbing in front of a back-light"),
+    "b": ("single_scattering", "albedo-0.8 sphere, point light, max_depth 2"),
+    "c": ("dense_multiple", "σt=5, albedo 0.99, g=0.6 sphere over a floor, area light, max_depth 64"),
+    "d": ("hetero_cube", "64³ heterogeneous cube (τ up to ~20), chromatic albedo, sun + sky"),
+    "e": ("thin_fog", "1000 m box of fog σt=1e-3, sun, camera in the fog"),
+}
+THREADS = 2
+
+
+def rmse(img, ref):
+    return float(np.sqrt(np.mean((np.asarray(img, np.float64) - ref) ** 2)))
+
+
+class Volpath:
+    name = "volpath"
+
+    def __init__(self, path, res):
+        self.scene = volpath.load_file(path, res=res)
+
+    def render(self, spp, seed):
+        start = time.perf_counter()
+        img = volpath.render(self.scene, spp=spp, seed=seed, threads=THREADS)
+        return img, time.perf_counter() - start
+
+
+class Mitsuba:
+    def __init__(self, variant, path, res):
+        import drjit as dr
+        import mitsuba as mi
+
+        mi.set_variant(variant)
+        dr.set_thread_count(THREADS)
+        self.mi, self.variant, self.name = mi, variant, f"mitsuba {variant}"
+        self.scene = mi.load_file(path, res=res)
+
+    def render(self, spp, seed):
+        mi = self.mi
+        mi.set_variant(self.variant)  # scenes belong to the variant that loaded them
+        np.asarray(mi.render(self.scene, spp=spp, seed=seed + 7919))  # compile / warm up
+        start = time.perf_counter()
+        img = np.asarray(mi.render(self.scene, spp=spp, seed=seed))
+        return img[..., :3], time.perf_counter() - start
+
+
+def mitsuba_variants():
+    try:
+        import mitsuba as mi
+    except ImportError:
+        return []
+    found = []
+    for v in ("scalar_rgb", "llvm_ad_rgb"):
+        try:
+            mi.set_variant(v)
+            found.append(v)
+        except Exception as e:  # missing LLVM: reported, not fatal
+            print(f"  (mitsuba {v} unavailable: {e})")
+    return found
+
+
+def fit(points):
+    """Least-squares fit of log(rmse) = a + b log(t); returns (a, b)."""
+    t = np.log([p[0] for p in points])
+    e = np.log([p[1] for p in points])
+    b, a = np.polyfit(t, e, 1)
+    return a, b
+
+
+def time_for(points, target):
+    a, b = fit(points)
+    return float(np.exp((np.log(target) - a) / b)), b
+
+
+def run_scene(key, args, variants):
+    stem, _ = SCENES[key]
+    path = os.path.join(HERE, "scenes", f"{stem}.xml")
+    vp = Volpath(path, args.res)
+    _, t16 = vp.render(16, 1)
+    ref_spp = int(2 ** np.clip(np.round(np.log2(16 * args.ref_seconds / max(t16, 1e-3))), 8, 16))
+    ref, ref_time = vp.render(ref_spp, 12345)
+    ref = ref.astype(np.float64)
+    rows = {}
+    renderers = [vp] + [Mitsuba(v, path, args.res) for v in variants]
+    for r in renderers:
+        pts = []
+        for spp in args.ladder:
+            img, sec = r.render(spp, 1 + spp)
+            pts.append((sec, rmse(img, ref), spp, img))
+        rows[r.name] = pts
+    # Target: the fastest Mitsuba variant's error at target_spp (or Volpath's own if no peer).
+    peers = [n for n in rows if n != "volpath"]
+    target = None
+    if peers:
+        at = {n: next(p for p in rows[n] if p[2] == args.target_spp) for n in peers}
+        best = min(peers, key=lambda n: at[n][0])
+        target = at[best][1]
+    else:
+        target = next(p for p in rows["volpath"] if p[2] == args.target_spp)[1]
+    result = {"ref_spp": ref_spp, "ref_time": ref_time, "target": target, "mean": float(ref.mean()), "renderers": {}}
+    for n, pts in rows.items():
+        t, slope = time_for([(p[0], p[1]) for p in pts], target)
+        result["renderers"][n] = {"time": t, "slope": slope, "points": [(p[2], p[0], p[1]) for p in pts]}
+        if n != "volpath":
+            # Agreement: the highest-spp peer image against the reference, by the mean.
+            img_hi = pts[-1][3]
+            result["renderers"][n]["agreement"] = {
+                "mean_diff_rel": float(np.mean(img_hi) - ref.mean()) / max(float(ref.mean()), 1e-12)}
+    return result
+
+
+def machine():
+    cpu = "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+
+
+def markdown(results, args, variants):
+    date = datetime.date.today().isoformat()
+    lines = [f"## Volpath vs Mitsuba 3 — {date}", "",
+             f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
+             f"spp shown. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
+             "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) + ".",
+             f"Mitsuba variants: {', '.join(variants) or 'none available'}.", "",
+             "| scene | ref spp | target RMSE (rel.) | Volpath s | " +
+             " | ".join(f"{v} s" for v in variants) + " | Volpath / best Mitsuba | slopes (V; M) | mean diff vs Mitsuba |",
+             "|---|---|---|---|" + "---|" * len(variants) + "---|---|---|"]
+    for key, r in results.items():
+        rv = r["renderers"]["volpath"]
+        mts = [r["renderers"].get(f"mitsuba {v}") for v in variants]
+        best = min((m["time"] for m in mts if m), default=None)
+        ratio = f"**{rv['time'] / best:.2f}×**" if best else "—"
+        slopes = f"{rv['slope']:.2f}; " + ", ".join(f"{m['slope']:.2f}" for m in mts if m)
+        agree = ", ".join(f"{100 * m['agreement']['mean_diff_rel']:+.2f} %" for m in mts if m)
+        lines.append(f"| ({key}) {SCENES[key][0]} | {r['ref_spp']} | {r['target']:.4g} ({r['target'] / max(r['mean'], 1e-12):.2%}) | "
+                     f"{rv['time']:.3f} | " + " | ".join(f"{m['time']:.3f}" if m else "—" for m in mts) +
+                     f" | {ratio} | {slopes} | {agree} |")
+    lines += ["", "Raw points (spp, seconds, RMSE):", ""]
+    for key, r in results.items():
+        for n, rr in r["renderers"].items():
+            pts = "; ".join(f"{s}: {t:.3f} s, {e:.4g}" for s, t, e in rr["points"])
+            lines.append(f"- ({key}) {n}: {pts}")
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--scenes", default="abcde")
+    ap.add_argument("--res", type=int, default=256)
+    ap.add_argument("--ladder", type=int, nargs="+", default=[4, 16, 64, 256])
+    ap.add_argument("--target-spp", type=int, default=64)
+    ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
+    ap.add_argument("--out", help="write the Markdown table here (replacing the Mitsuba section)")
+    args = ap.parse_args()
+    if args.target_spp not in args.ladder:
+        ap.error("--target-spp must be one of the --ladder values")
+    subprocess.run([sys.executable, os.path.join(HERE, "make_grids.py")], check=True, capture_output=True)
+    variants = mitsuba_variants()
+    results = {}
+    for key in args.scenes:
+        print(f"({key}) {SCENES[key][0]} ...", flush=True)
+        results[key] = run_scene(key, args, variants)
+    text = markdown(results, args, variants)
+    print(text)
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write("# Benchmark results\n\nProduced by `make bench` (bench/compare_mitsuba.py); "
+                    "numbers are from one run on the machine named.\n\n" + text)
+
+
+if __name__ == "__main__":
+    main()
