@@ -4,8 +4,11 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
-# Debian packages the build needs (installed only when missing).
-DEBIAN_PACKAGES := g++ make python3-venv
+# Debian packages the build needs (installed only when missing). The Python headers and
+# venv come from Debian only when the Python in use lacks them.
+DEBIAN_PACKAGES := g++ make
+PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo python3-venv) \
+            $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
 SPP ?= 16
 RES ?= 256
@@ -16,7 +19,7 @@ JOBS ?= 2
 all: test
 
 debian:
-	@missing=""; for p in $(DEBIAN_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	@missing=""; for p in $(DEBIAN_PACKAGES) $(PY_NEEDS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
 	  echo "Installing Debian packages:$$missing"; \
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \

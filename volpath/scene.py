@@ -340,8 +340,7 @@ class _Builder:
         if settings["rr_depth"] < 1:
             raise p.error("'rr_depth' must be at least 1")
         settings["max_null_collisions"] = p.int("max_null_collisions", 1000)
-        p.raw("hide_emitters", False)  # accepted, but emitters are always visible
-        if p.raw("hide_emitters", False):
+        if p.bool("hide_emitters", False):
             raise p.error("'hide_emitters' is not supported")
         p.check()
         return settings
@@ -431,7 +430,6 @@ class _Builder:
             raise p.error("'far_clip' must exceed 'near_clip'")
         p.raw("shutter_open"), p.raw("shutter_close"), p.raw("principal_point_offset_x"), p.raw("principal_point_offset_y")
         p.check()
-        # Remove scale from the camera frame: directions are normalised by the core.
         medium_index = self.medium(medium) if medium is not None else -1
         self.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian)
         self.summary["camera"] = {"width": width, "height": height, "fov": fov, "fov_axis": axis,
@@ -499,8 +497,7 @@ class _Builder:
         v = p.raw(name, default)
         if isinstance(v, dict) and _kind(v) == "texture":
             raise p.error(f"textures are not supported for '{name}' (give an rgb)")
-        rgb = p.rgb(name, default)
-        return rgb
+        return p.rgb(name, default)
 
     def ior(self, p, name, default):
         v = p.raw(name, default)

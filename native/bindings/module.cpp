@@ -260,13 +260,13 @@ PYBIND11_MODULE(_core, m) {
         auto d = dirs.mutable_unchecked<2>();
         auto p = pdfs.mutable_unchecked<1>();
         for (size_t i = 0; i < n; ++i) {
-            const PhaseSample s = phase_sample(phase(g), {0, 0, 1}, {u.at(i, 0), u.at(i, 1)});
+            const PhaseSample s = phase_sample(phase(g), {0, 0, 1}, {u.at(i, 0), u.at(i, 1)}, 0.0, 0);
             d(i, 0) = s.d_out.x, d(i, 1) = s.d_out.y, d(i, 2) = s.d_out.z;
-            p(i) = s.pdf;
+            p(i) = s.pdf[0];
         }
         return py::make_tuple(dirs, pdfs);
     });
-    m.def("phase_eval", [](double g, double mu) { return phase_eval(phase(g), mu); });
+    m.def("phase_eval", [](double g, double mu) { return phase_eval(phase(g), mu)[0]; });
     m.def("light_sample", [](Scene &s, int light, Array3 ref, const DoubleArray &u) {
         if (!s.built) s.build();
         if (light < 0 || light >= int(s.lights.size())) throw std::out_of_range("no such light");

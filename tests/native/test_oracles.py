@@ -93,3 +93,31 @@ def test_energy_is_not_gained_with_absorption():
         image = volpath.render(scene, tracer=tracer)
         assert np.all(np.isfinite(image)) and image.min() >= 0
         assert image[2:6, 2:6].mean() < 0.95
+
+
+@pytest.mark.parametrize("tracer", volpath.TRACERS)
+def test_camera_inside_an_absorbing_medium(tracer):
+    """The camera sits inside a large absorbing sphere and looks at an emitter 4 units
+    away that is also inside: every pixel is exp(-sigma_t * distance), exactly. As in
+    Mitsuba, rays start at the near clipping plane (0.01), so the medium before it is
+    not traversed."""
+    sigma_t = 0.3
+    xml = S.scene(S.camera(res=8, fov=10, spp=4, medium="m"), S.homogeneous("m", f"{sigma_t}", "0"),
+                  S.medium_sphere("m", radius=50), S.back_light(z=1, size=20))
+    image = volpath.render(volpath.load_string(xml), tracer=tracer)
+    # Rays at up to 7 degrees off-axis travel 4/cos(theta) to the plane z = 1.
+    t = math.tan(math.radians(5)) * math.sqrt(2)
+    lo, hi = math.exp(-sigma_t * 3.99 * math.sqrt(1 + t * t)), math.exp(-sigma_t * 3.99)
+    assert np.all((image >= lo - 1e-6) & (image <= hi + 1e-6))
+
+
+def test_nested_media_boundaries():
+    """An absorbing sphere nested in another: transmittance multiplies along the ray."""
+    xml = S.scene(S.camera(res=8, fov=2, spp=4), S.homogeneous("outer", "0.5", "0"), S.homogeneous("inner", "2", "0"),
+                  S.medium_sphere("outer", radius=2),
+                  '<shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>'
+                  '<ref name="interior" id="inner"/><ref name="exterior" id="outer"/></shape>',
+                  S.back_light(z=-3, size=10))
+    image = volpath.render(volpath.load_string(xml), tracer="absorption")
+    expected = math.exp(-0.5 * 2 - 2 * 2)  # 2 units of outer, 2 of inner along the axis
+    assert abs(image[4, 4, 0] - expected) / expected < 1e-3

@@ -92,3 +92,20 @@ def test_cli_render_and_info(tmp_path):
     assert r.returncode == 2 and "not found" in r.stderr
     r = run_cli("render", str(tmp_path / "s.xml"), "-o", str(out), "--spp", "0")
     assert r.returncode == 2 and "--spp" in r.stderr
+
+
+def test_ctrl_c_stops_the_cli_within_a_second(tmp_path):
+    import signal
+
+    (tmp_path / "slow.xml").write_text(S.scene(S.camera(res=256, spp=100000), S.homogeneous("m", "5", "0.99"),
+                                               S.medium_sphere("m"), S.constant_env()))
+    proc = subprocess.Popen([sys.executable, "-m", "volpath", "render", str(tmp_path / "slow.xml"), "-o",
+                             str(tmp_path / "o.exr"), "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(2.0)  # loaded and rendering
+    assert proc.poll() is None
+    sent = time.perf_counter()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=10)
+    assert time.perf_counter() - sent < 1.0
+    assert proc.returncode == 130 and "interrupted" in err
+    assert not (tmp_path / "o.exr").exists()

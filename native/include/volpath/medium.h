@@ -39,7 +39,29 @@ struct GridMedium {
     PhaseFunction phase;
 };
 
-using Medium = std::variant<HomogeneousMedium, GridMedium>;
+// A planet's air in metres (Bruneton 2017 / Hillaire 2020 model): Rayleigh and Mie
+// scattering with exponential density profiles, Mie absorption, and ozone absorption
+// with a tent profile. Altitude h = |p - center| - planet_radius; the medium fills the
+// shell up to top_radius. Majorants come per piece of ray from the lowest altitude on
+// the piece, where every profile (but ozone's, bounded separately) peaks.
+struct AtmosphereMedium {
+    Vec3 center;
+    Real planet_radius = 6360e3, top_radius = 6420e3;
+    Spectrum rayleigh_sigma_s{5.802e-6, 13.558e-6, 33.1e-6};
+    Real rayleigh_height = 8e3;
+    Spectrum mie_sigma_s{3.996e-6}, mie_sigma_a{0.444e-6};
+    Real mie_height = 1.2e3;
+    Real mie_g = 0.8;
+    Spectrum ozone_sigma_a{0.650e-6, 1.881e-6, 0.085e-6};  // at the peak of the tent
+    Real ozone_bottom = 10e3, ozone_peak = 25e3, ozone_top = 40e3;
+    int pieces = 16;  // majorant pieces per ray segment
+
+    Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }
+    Real ozone_profile(Real h) const;
+    void densities(Real h, Real &rayleigh, Real &mie, Real &ozone) const;
+};
+
+using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;
 
 struct MediumProperties {
     Spectrum sigma_a, sigma_s;
@@ -47,16 +69,21 @@ struct MediumProperties {
 
 inline bool is_homogeneous(const Medium &m) { return std::holds_alternative<HomogeneousMedium>(m); }
 MediumProperties medium_properties(const Medium &m, const Vec3 &p);
-const PhaseFunction &medium_phase(const Medium &m);
+PhaseFunction medium_phase(const Medium &m, const Vec3 &p);
 void prepare_medium(Medium &m);  // computes majorants
 
-// The part [t0, t1] of the ray inside which the medium may be non-empty, with its
-// majorant. Returns false when the ray misses it within t_max.
+// Pieces [t0, t1] of the ray inside which the medium may be non-empty, in order, each
+// with a majorant sigma_maj >= sigma_t. Outside them the medium is empty.
 struct MajorantSegment {
     Real t0 = 0, t1 = 0;
     Spectrum sigma_maj;
 };
-bool majorant_segment(const Medium &m, const Ray &ray, Real t_max, MajorantSegment &seg);
+constexpr int kMaxMajorantSegments = 32;
+struct MajorantSegments {
+    MajorantSegment seg[kMaxMajorantSegments];
+    int count = 0;
+};
+void majorant_segments(const Medium &m, const Ray &ray, Real t_max, MajorantSegments &out);
 
 // Tentative collisions against the majorant, distances sampled in `channel` (pbrt's
 // SampleT_maj). At each collision the callback gets the point, the coefficients there,
@@ -66,19 +93,32 @@ bool majorant_segment(const Medium &m, const Ray &ray, Real t_max, MajorantSegme
 template <typename Callback>
 Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel,
                       Sampler &rng, Callback &&callback) {
-    MajorantSegment seg;
-    if (!majorant_segment(medium, ray, t_max, seg)) return Spectrum(1.0);
-    const Real sigma_c = seg.sigma_maj[channel];
-    if (sigma_c <= 0) return exp(-seg.sigma_maj * (seg.t1 - seg.t0));
-    Real t = seg.t0;
-    for (;;) {
-        const Real dt = -std::log1p(-rng.next_1d()) / sigma_c;
-        if (t + dt >= seg.t1) return exp(-seg.sigma_maj * (seg.t1 - t));
-        t += dt;
-        const Vec3 p = ray.at(t);
-        if (!callback(p, t, medium_properties(medium, p), seg.sigma_maj, exp(-seg.sigma_maj * dt)))
-            return Spectrum(1.0);
+    MajorantSegments segments;
+    majorant_segments(medium, ray, t_max, segments);
+    // T_maj accumulates across pieces until the next tentative collision.
+    Spectrum T_maj(1.0);
+    for (int i = 0; i < segments.count; ++i) {
+        const MajorantSegment &seg = segments.seg[i];
+        const Real sigma_c = seg.sigma_maj[channel];
+        if (sigma_c <= 0) {
+            T_maj *= exp(-seg.sigma_maj * (seg.t1 - seg.t0));
+            continue;
+        }
+        Real t = seg.t0;
+        for (;;) {
+            const Real dt = -std::log1p(-rng.next_1d()) / sigma_c;
+            if (t + dt >= seg.t1) {
+                T_maj *= exp(-seg.sigma_maj * (seg.t1 - t));
+                break;
+            }
+            t += dt;
+            T_maj *= exp(-seg.sigma_maj * dt);
+            const Vec3 p = ray.at(t);
+            if (!callback(p, t, medium_properties(medium, p), seg.sigma_maj, T_maj)) return Spectrum(1.0);
+            T_maj = Spectrum(1.0);
+        }
     }
+    return T_maj;
 }
 
 }  // namespace volpath

@@ -94,7 +94,6 @@ struct Pdf {
 };
 
 struct Sample {
-    const BSDF &bsdf;
     Vec3 wi;
     Real u_lobe;
     Vec2 u;
@@ -171,7 +170,7 @@ Real bsdf_pdf(const BSDF &bsdf, Vec3 wi, Vec3 wo) {
 bool bsdf_sample(const BSDF &bsdf, Vec3 wi, Real u_lobe, Vec2 u, BSDFSample &out) {
     const bool flipped = bsdf.twosided && wi.z < 0;
     if (flipped) wi.z = -wi.z;
-    if (!std::visit(Sample{bsdf, wi, u_lobe, u, out}, bsdf.model)) return false;
+    if (!std::visit(Sample{wi, u_lobe, u, out}, bsdf.model)) return false;
     if (flipped) out.wo.z = -out.wo.z;
     return true;
 }

@@ -45,8 +45,8 @@ Features features_of(const TracerConfig &c) {
 
 // Next-event estimation from a scattering point: choose a light uniformly, sample a
 // point on it and trace a shadow ray through index-matched boundaries and media.
-// `eval(d)` returns the scattering value f (times the cosine, for surfaces) and its
-// sampling pdf for direction d. r_p is the path's rescaled unidirectional pdf.
+// `eval(d, pdf)` returns the scattering value f (times the cosine, for surfaces) and sets
+// the pdf of sampling d per channel. r_p is the path's rescaled unidirectional pdf.
 template <typename Eval>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
                        int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
@@ -58,7 +58,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
         !(ls.pdf > 0) || is_black(ls.L))
         return Spectrum(0.0);
-    Real scatter_pdf;
+    Spectrum scatter_pdf;
     const Spectrum f = eval(ls.d, scatter_pdf);
     if (is_black(f)) return Spectrum(0.0);
 
@@ -198,25 +198,30 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
                                 return false;
                             }
                             ++depth;
-                            const PhaseFunction &phase = medium_phase(m);
+                            const PhaseFunction phase = medium_phase(m, p);
                             if (feat.nee) {
                                 L += sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta, r_u, channel,
-                                                   feat.mis, sampler, [&](const Vec3 &d, Real &pdf_d) {
-                                                       pdf_d = phase_eval(phase, dot(ray.d, d));
-                                                       return Spectrum(pdf_d);
+                                                   feat.mis, sampler, [&](const Vec3 &d, Spectrum &pdf_d) {
+                                                       const Real mu = dot(ray.d, d);
+                                                       pdf_d = phase_pdf(phase, mu);
+                                                       return phase_eval(phase, mu);
                                                    });
                                 if (!feat.emission_after_scatter) {
                                     terminated = true;  // single scattering is complete
                                     return false;
                                 }
                             }
-                            const PhaseSample ps = phase_sample(phase, ray.d, sampler.next_2d());
-                            if (!(ps.pdf > 0)) {
+                            const Real u_lobe = sampler.next_1d();
+                            const PhaseSample ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
+                            const Real pdf_c = ps.pdf[channel];
+                            if (!(pdf_c > 0)) {
                                 terminated = true;
                                 return false;
                             }
-                            // The phase function is sampled exactly: beta is unchanged.
-                            r_l = r_u / ps.pdf;
+                            // Lobe mixtures make the direction's pdf differ per channel.
+                            beta *= ps.value / pdf_c;
+                            r_l = r_u / pdf_c;
+                            r_u *= ps.pdf / pdf_c;
                             prev_p = p;
                             specular_bounce = false;
                             null_crossings = 0;
@@ -294,9 +299,9 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
         const Frame frame(its.ns);
         const Vec3 wi = frame.to_local(-ray.d);
         if (feat.nee && !is_delta(bsdf)) {
-            L += sample_direct(scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler, [&](const Vec3 &d, Real &pdf_d) {
+            L += sample_direct(scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler, [&](const Vec3 &d, Spectrum &pdf_d) {
                                    const Vec3 wo = frame.to_local(d);
-                                   pdf_d = bsdf_pdf(bsdf, wi, wo);
+                                   pdf_d = Spectrum(bsdf_pdf(bsdf, wi, wo));
                                    return bsdf_eval(bsdf, wi, wo);
                                });
             if (!feat.emission_after_scatter) return L;
