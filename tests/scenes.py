@@ -1,12 +1,12 @@
 """Small scenes built as XML strings for the tests."""
 
 
-def camera(res=16, fov=40, origin="0, 0, 5", target="0, 0, 0", spp=16, medium=None, extra=""):
+def camera(res=16, fov=40, origin="0, 0, 5", target="0, 0, 0", spp=16, medium=None, extra="", up="0, 1, 0"):
     med = f'<ref id="{medium}"/>' if medium else ""
     return f"""
     <sensor type="perspective">
         <float name="fov" value="{fov}"/>
-        <transform name="to_world"><lookat origin="{origin}" target="{target}" up="0, 1, 0"/></transform>
+        <transform name="to_world"><lookat origin="{origin}" target="{target}" up="{up}"/></transform>
         <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
         <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
             <rfilter type="box"/></film>

@@ -31,6 +31,26 @@ IOR = {"vacuum": 1.0, "air": 1.000277, "water": 1.3330, "water ice": 1.31, "fuse
 RGB_WAVELENGTHS = (680.0, 550.0, 440.0)
 
 
+def rayleigh_coefficient(wavelength_nm, n=1.00029, N=2.504e25):
+    """Rayleigh scattering at sea level, 8 pi^3 (n^2 - 1)^2 / (3 N lambda^4), per metre."""
+    lam = np.asarray(wavelength_nm, dtype=np.float64) * 1e-9
+    return 8 * math.pi ** 3 * (n * n - 1) ** 2 / (3 * N * lam ** 4)
+
+
+# Atmosphere presets, in metres. Bruneton 2017 / Hillaire 2020 is the physically sound
+# default; "report" reproduces the physics of the original course report.
+ATMOSPHERE_PRESETS = {
+    "bruneton": dict(planet_radius=6360e3, atmosphere_height=60e3,
+                     rayleigh_scattering=(5.802e-6, 13.558e-6, 33.1e-6), rayleigh_height=8e3,
+                     mie_scattering=3.996e-6, mie_extinction=4.440e-6, mie_height=1.2e3, g=0.8,
+                     ozone=True, ozone_absorption=(0.650e-6, 1.881e-6, 0.085e-6), ground_albedo=0.1),
+    "report": dict(planet_radius=6378e3, atmosphere_height=60e3,
+                   rayleigh_scattering=tuple(rayleigh_coefficient(RGB_WAVELENGTHS)), rayleigh_height=8.5e3,
+                   mie_scattering=3.996e-6, mie_extinction=3.996e-6 / 0.9, mie_height=1.2e3, g=0.76,
+                   ozone=False, ozone_absorption=(0.0, 0.0, 0.0), ground_albedo=(0.25, 0.25, 0.35)),
+}
+
+
 class Scene:
     """A loaded scene: the native scene plus the file's render settings.
 
@@ -248,6 +268,7 @@ class _Builder:
         self.building = set()
         self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
+        self.atmospheres = []    # (native medium index, centre, top radius)
 
     def _index_ids(self, d):
         for k, v in d.items():
@@ -297,6 +318,11 @@ class _Builder:
                 if sensor is not None:
                     raise SceneError(f"{where(v.get('__loc__'))}only one sensor is supported")
                 sensor = v
+        # Declared media first: an atmosphere brings its own geometry, and a camera inside
+        # it is inside it without saying so.
+        for key, v in items:
+            if _kind(v) == "medium":
+                self.medium(v)
         for key, v in items:
             kind = _kind(v)
             if kind == "shape":
@@ -309,11 +335,9 @@ class _Builder:
                 raise SceneError(f"{where(v.get('__loc__'))}unknown plugin type '{v.get('type')}'")
         settings = self.integrator(integrator)
         settings["spp"] = self.sensor(sensor)
-        # Declared media and BSDFs that nothing references are still checked.
+        # Declared BSDFs that nothing references are still checked.
         for key, v in items:
-            if _kind(v) == "medium":
-                self.medium(v)
-            elif _kind(v) == "bsdf":
+            if _kind(v) == "bsdf":
                 self.bsdf(v)
         scene.check()
         self.native.build()
@@ -431,6 +455,10 @@ class _Builder:
         p.raw("shutter_open"), p.raw("shutter_close"), p.raw("principal_point_offset_x"), p.raw("principal_point_offset_y")
         p.check()
         medium_index = self.medium(medium) if medium is not None else -1
+        if medium is None:
+            for index, center, top in self.atmospheres:
+                if np.linalg.norm(to_world[:3, 3] - center) < top:
+                    medium_index = index
         self.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian)
         self.summary["camera"] = {"width": width, "height": height, "fov": fov, "fov_axis": axis,
                                   "origin": to_world[:3, 3].tolist(), "medium": medium_index}
@@ -572,10 +600,57 @@ class _Builder:
             self.summary["media"].append({"index": index, "type": "heterogeneous",
                                           "sigma_t_range": [float(density.min() * scale), float(density.max() * scale)],
                                           "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc})
+        elif p.type == "atmosphere":
+            index = self.atmosphere(p, scale)
         else:
-            raise p.error("unknown medium (expected 'homogeneous' or 'heterogeneous')")
+            raise p.error("unknown medium (expected 'homogeneous', 'heterogeneous' or 'atmosphere')")
         p.check()
         self.media[id(d)] = index
+        return index
+
+    def atmosphere(self, p, scale):
+        """The planet's air, its top-of-atmosphere boundary and (unless ground=false) the
+        ground as a diffuse sphere. Lengths in metres times `unit` (metres per scene unit)."""
+        preset = ATMOSPHERE_PRESETS[p.str("preset", "bruneton", tuple(ATMOSPHERE_PRESETS))]
+        mode = p.str("mode", "rgb", ("rgb", "spectral"))
+        if mode == "spectral":
+            raise p.error("mode 'spectral' is not implemented yet (use 'rgb')")
+        unit = p.float("unit", 1.0, positive=True)  # metres per scene unit
+        R = p.float("planet_radius", preset["planet_radius"], positive=True) / unit
+        H = p.float("atmosphere_height", preset["atmosphere_height"], positive=True) / unit
+        center = p.vec3("center", [0.0, -R, 0.0])
+        per_unit = unit * scale  # coefficients are per metre
+        rayleigh = p.rgb("rayleigh_scattering", {"type": "rgb", "value": list(preset["rayleigh_scattering"])}) * per_unit
+        mie_s = p.rgb("mie_scattering", preset["mie_scattering"]) * per_unit
+        mie_t = p.rgb("mie_extinction", preset["mie_extinction"]) * per_unit
+        if np.any(mie_t < mie_s):
+            raise p.error("'mie_extinction' must be at least 'mie_scattering'")
+        ozone = p.bool("ozone", preset["ozone"])
+        ozone_sigma = p.rgb("ozone_absorption", {"type": "rgb", "value": list(preset["ozone_absorption"])}) * per_unit
+        g = p.float("g", preset["g"])
+        if not -1 < g < 1:
+            raise p.error(f"'g' must be in (-1, 1), got {g}")
+        h_r = p.float("rayleigh_height", preset["rayleigh_height"], positive=True) / unit
+        h_m = p.float("mie_height", preset["mie_height"], positive=True) / unit
+        pieces = p.int("majorant_pieces", 16)
+        if not 1 <= pieces <= 32:
+            raise p.error("'majorant_pieces' must be in 1..32")
+        albedo = p.rgb("ground_albedo", preset["ground_albedo"])
+        if np.any(albedo > 1):
+            raise p.error("'ground_albedo' must be at most 1")
+        n = self.native
+        index = n.add_medium_atmosphere(tuple(center), R, R + H, tuple(rayleigh), h_r, tuple(mie_s),
+                                        tuple(mie_t - mie_s), h_m, g,
+                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces)
+        n.add_sphere(tuple(center), R + H, False, n.add_bsdf_null(), interior=index, exterior=-1,
+                     medium_interface=True)
+        if p.bool("ground", True):
+            n.add_sphere(tuple(center), R, False, n.add_bsdf_diffuse(tuple(albedo), False), interior=-1,
+                         exterior=index, medium_interface=True)
+        self.atmospheres.append((index, center, R + H))
+        self.summary["media"].append({"index": index, "type": "atmosphere", "planet_radius": R, "height": H,
+                                      "sigma_t": (rayleigh + mie_t + (ozone_sigma if ozone else 0)).tolist(),
+                                      "albedo": [float("nan")] * 3, "g": g, "loc": p.loc})
         return index
 
     def volume(self, p, name, default):
@@ -743,10 +818,27 @@ class _Builder:
             to_world = p.transform()
             n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world))
             info.update(filename=path, resolution=list(image.shape[1::-1]))
+        elif p.type == "sun":
+            if p.has("direction"):
+                direction = p.vec3("direction")
+                if np.linalg.norm(direction) == 0:
+                    raise p.error("'direction' must not be zero")
+                to_sun = -direction / np.linalg.norm(direction)
+            else:
+                # Y is up; azimuth turns from -z towards +x.
+                e = math.radians(p.float("elevation", 30.0))
+                a = math.radians(p.float("azimuth", 0.0))
+                to_sun = np.array([math.cos(e) * math.sin(a), math.sin(e), -math.cos(e) * math.cos(a)])
+            radius = p.float("angular_radius", 0.004675, positive=True)
+            if radius >= 0.5:
+                raise p.error("'angular_radius' must be below 0.5 rad")
+            irradiance = p.rgb("irradiance", 1.0)
+            n.add_sun(tuple(to_sun), radius, tuple(irradiance))
+            info.update(to_sun=to_sun.tolist(), angular_radius=radius, irradiance=irradiance.tolist())
         elif p.type == "area":
             raise p.error("an area emitter must be nested inside a shape")
         else:
-            raise p.error("unknown emitter (expected one of: point, directional, constant, envmap, area)")
+            raise p.error("unknown emitter (expected one of: point, directional, sun, constant, envmap, area)")
         p.raw("sampling_weight")
         p.check()
         self.summary["emitters"].append(info)
@@ -771,8 +863,8 @@ _KINDS = {
     "shape": {"sphere", "rectangle", "cube", "obj", "ply", "disk", "cylinder", "serialized"},
     "bsdf": {"null", "diffuse", "dielectric", "thindielectric", "roughplastic", "plastic", "principled",
              "twosided", "conductor", "roughconductor", "roughdielectric"},
-    "emitter": {"point", "directional", "constant", "envmap", "area", "spot"},
-    "medium": {"homogeneous", "heterogeneous"},
+    "emitter": {"point", "directional", "sun", "constant", "envmap", "area", "spot"},
+    "medium": {"homogeneous", "heterogeneous", "atmosphere"},
     "phase": {"isotropic", "hg"},
     "volume": {"gridvolume", "constvolume"},
     "texture": {"bitmap", "checkerboard"},

@@ -204,6 +204,31 @@ PYBIND11_MODULE(_core, m) {
              py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"),
              py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
              py::arg("radiance") = py::none())
+        .def("add_medium_atmosphere",
+             [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
+                double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
+                int pieces) {
+                 AtmosphereMedium a;
+                 a.center = vec(center);
+                 a.planet_radius = planet_radius, a.top_radius = top_radius;
+                 a.rayleigh_sigma_s = vec(rayleigh), a.rayleigh_height = rayleigh_height;
+                 a.mie_sigma_s = vec(mie_s), a.mie_sigma_a = vec(mie_a), a.mie_height = mie_height;
+                 a.mie_g = g;
+                 a.ozone_sigma_a = vec(ozone);
+                 a.pieces = pieces;
+                 return s.add_medium(a);
+             },
+             py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
+             py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
+             py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 16)
+        .def("add_sun",
+             [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
+                 if (!(angular_radius > 0 && angular_radius < 0.5))
+                     throw std::invalid_argument("sun angular radius must be in (0, 0.5) rad");
+                 const double sin_r = std::sin(angular_radius);
+                 return s.add_light(SunLight{normalize(vec(to_sun)), std::cos(angular_radius),
+                                             vec(irradiance) / (kPi * sin_r * sin_r)});
+             })
         .def("add_point_light",
              [](Scene &s, Array3 p, Array3 intensity) { return s.add_light(PointLight{vec(p), vec(intensity)}); })
         .def("add_directional_light",
@@ -267,6 +292,55 @@ PYBIND11_MODULE(_core, m) {
         return py::make_tuple(dirs, pdfs);
     });
     m.def("phase_eval", [](double g, double mu) { return phase_eval(phase(g), mu)[0]; });
+    m.def("rayleigh_eval", &rayleigh_eval);
+    m.def("cornette_shanks_eval", &cornette_shanks_eval);
+    m.def("air_phase_sample", [](Array3 rayleigh_fraction, double g, int channel, const DoubleArray &u) {
+        const size_t n = size_t(u.shape(0));
+        py::array_t<double> dirs({n, size_t(3)}), pdfs(n);
+        auto d = dirs.mutable_unchecked<2>();
+        auto p = pdfs.mutable_unchecked<1>();
+        const PhaseFunction air = RayleighMiePhase{vec(rayleigh_fraction), g};
+        for (size_t i = 0; i < n; ++i) {
+            const PhaseSample s = phase_sample(air, {0, 0, 1}, {u.at(i, 1), u.at(i, 2)}, u.at(i, 0), channel);
+            d(i, 0) = s.d_out.x, d(i, 1) = s.d_out.y, d(i, 2) = s.d_out.z;
+            p(i) = s.pdf[channel];
+        }
+        return py::make_tuple(dirs, pdfs);
+    });
+    m.def("air_phase_pdf", [](Array3 rayleigh_fraction, double g, int channel, double mu) {
+        return phase_pdf(RayleighMiePhase{vec(rayleigh_fraction), g}, mu)[channel];
+    });
+    m.def("sphere_roots", [](Array3 center, double radius, Array3 o, Array3 d) -> py::object {
+        double t0, t1;
+        if (!sphere_roots(vec(center), radius, vec(o), normalize(vec(d)), t0, t1)) return py::none();
+        return py::make_tuple(t0, t1);
+    });
+    m.def("optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int steps) {
+        const Spectrum tau = optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max},
+                                           t_max, steps);
+        return Array3{tau.x, tau.y, tau.z};
+    });
+    // Mean of n ratio-tracking estimates per channel, each channel sampled with its own
+    // majorant, and the standard errors.
+    m.def("ratio_tracking", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int n, uint64_t seed) {
+        const Medium &m = s.media.at(size_t(medium));
+        const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
+        Spectrum sum(0.0), sum2(0.0);
+        {
+            py::gil_scoped_release release;
+            for (int c = 0; c < 3; ++c) {
+                for (int i = 0; i < n; ++i) {
+                    Sampler rng(seed, uint64_t(c), uint64_t(i));
+                    const Real T = ratio_tracking(m, ray, t_max, c, rng)[c];
+                    sum[c] += T;
+                    sum2[c] += T * T;
+                }
+            }
+        }
+        const Spectrum mean = sum / Real(n), var = clamp_zero(sum2 / Real(n) - mean * mean);
+        return py::make_tuple(Array3{mean.x, mean.y, mean.z},
+                              Array3{std::sqrt(var.x / n), std::sqrt(var.y / n), std::sqrt(var.z / n)});
+    });
     m.def("light_sample", [](Scene &s, int light, Array3 ref, const DoubleArray &u) {
         if (!s.built) s.build();
         if (light < 0 || light >= int(s.lights.size())) throw std::out_of_range("no such light");

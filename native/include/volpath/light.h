@@ -39,7 +39,15 @@ struct EnvironmentLight {
     Transform to_world, to_local;
 };
 
-using Light = std::variant<PointLight, DirectionalLight, AreaLight, EnvironmentLight>;
+// A distant disc (the sun): uniform radiance within angular radius acos(cos_max) of
+// to_sun. Its irradiance at normal incidence is radiance * pi * sin^2(angular radius).
+struct SunLight {
+    Vec3 to_sun;  // unit, from the scene towards the sun
+    Real cos_max = 0.99998907;
+    Spectrum radiance;
+};
+
+using Light = std::variant<PointLight, DirectionalLight, AreaLight, EnvironmentLight, SunLight>;
 
 struct LightSample {
     Vec3 d;           // unit, from the reference point towards the light
@@ -56,8 +64,11 @@ bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref,
 // an area light (ignored for lights at infinity).
 Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d,
                const Intersection &its);
-// Radiance from an environment light along direction d (pointing away from the scene).
-Spectrum environment_radiance(const EnvironmentLight &env, const Vec3 &d);
-inline bool is_infinite(const Light &l) { return std::holds_alternative<EnvironmentLight>(l); }
+// Radiance from a light at infinity (environment or sun) along direction d, which points
+// away from the scene.
+Spectrum infinite_radiance(const Light &light, const Vec3 &d);
+inline bool is_infinite(const Light &l) {
+    return std::holds_alternative<EnvironmentLight>(l) || std::holds_alternative<SunLight>(l);
+}
 
 }  // namespace volpath

@@ -90,6 +90,10 @@ void majorant_segments(const Medium &m, const Ray &ray, Real t_max, MajorantSegm
 // sigma_maj and the majorant transmittance T_maj since the previous collision; it
 // returns false to stop. The result is T_maj from the last collision to t_max (or 1 if
 // the callback stopped the walk).
+// Optical depth along [ray.t_min, t_max] by composite Simpson quadrature with `steps`
+// intervals on each majorant piece (a deterministic reference for the tests).
+Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps);
+
 template <typename Callback>
 Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel,
                       Sampler &rng, Callback &&callback) {
@@ -121,4 +125,19 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
     return T_maj;
 }
 
+}  // namespace volpath
+
+namespace volpath {
+// Unbiased transmittance estimate by ratio tracking, distances sampled in `channel`.
+inline Spectrum ratio_tracking(const Medium &m, const Ray &ray, Real t_max, int channel, Sampler &rng) {
+    Spectrum T(1.0);
+    const Spectrum T_maj = sample_T_maj(m, ray, t_max, channel, rng,
+                                        [&](const Vec3 &, Real, const MediumProperties &mp,
+                                            const Spectrum &sigma_maj, const Spectrum &T_seg) {
+                                            const Spectrum sigma_n = sigma_maj - mp.sigma_a - mp.sigma_s;
+                                            T *= T_seg * sigma_n / (T_seg[channel] * sigma_maj[channel]);
+                                            return true;
+                                        });
+    return T * T_maj / T_maj[channel];
+}
 }  // namespace volpath

@@ -38,7 +38,7 @@ struct Scene {
     std::vector<BSDF> bsdfs;
     std::vector<Medium> media;
     std::vector<Light> lights;
-    std::vector<int> environment_lights;  // indices into lights
+    std::vector<int> infinite_lights;  // indices into lights
     Camera camera;
     bool built = false;
 

@@ -269,10 +269,9 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
         }
 
         if (!hit) {
-            for (int index : scene.environment_lights) {
-                const auto &env = std::get<EnvironmentLight>(scene.lights[index]);
-                add_emission(environment_radiance(env, ray.d),
-                             light_pdf(scene.lights[index], scene.geometry, prev_p, ray.d, its));
+            for (int index : scene.infinite_lights) {
+                const Light &light = scene.lights[index];
+                add_emission(infinite_radiance(light, ray.d), light_pdf(light, scene.geometry, prev_p, ray.d, its));
             }
             return L;
         }

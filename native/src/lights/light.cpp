@@ -82,6 +82,14 @@ struct Sample {
         out.L = bilinear(env, uv) * env.scale;
         return true;
     }
+    bool operator()(const SunLight &l) const {
+        out.d = Frame(l.to_sun).to_world(sample_uniform_cone(u, l.cos_max));
+        out.dist = kInfinity;
+        out.pdf = uniform_cone_pdf(l.cos_max);
+        out.L = l.radiance;
+        out.delta = false;
+        return true;
+    }
     bool operator()(const AreaLight &l) const {
         const ShapeGeometry &sg = geometry.shapes[l.shape];
         out.delta = false;
@@ -145,6 +153,9 @@ struct Pdf {
     Real operator()(const PointLight &) const { return 0; }
     Real operator()(const DirectionalLight &) const { return 0; }
     Real operator()(const EnvironmentLight &env) const { return env_pdf(env, d); }
+    Real operator()(const SunLight &l) const {
+        return dot(d, l.to_sun) >= l.cos_max ? uniform_cone_pdf(l.cos_max) : 0.0;
+    }
     Real operator()(const AreaLight &l) const {
         const ShapeGeometry &sg = geometry.shapes[l.shape];
         if (sg.is_sphere) {
@@ -200,7 +211,10 @@ Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, co
     return std::visit(Pdf{geometry, ref, d, its}, light);
 }
 
-Spectrum environment_radiance(const EnvironmentLight &env, const Vec3 &d) {
+Spectrum infinite_radiance(const Light &light, const Vec3 &d) {
+    if (const auto *sun = std::get_if<SunLight>(&light))
+        return dot(d, sun->to_sun) >= sun->cos_max ? sun->radiance : Spectrum(0.0);
+    const auto &env = std::get<EnvironmentLight>(light);
     if (env.width == 0) return env.scale;
     return bilinear(env, direction_to_uv(env, d)) * env.scale;
 }

@@ -159,6 +159,22 @@ void prepare_medium(Medium &m) {
     }
 }
 
+Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps) {
+    MajorantSegments segments;
+    majorant_segments(m, ray, t_max, segments);
+    steps += steps % 2;
+    Spectrum tau(0.0);
+    for (int i = 0; i < segments.count; ++i) {
+        const Real a = segments.seg[i].t0, h = (segments.seg[i].t1 - a) / steps;
+        for (int k = 0; k <= steps; ++k) {
+            const MediumProperties mp = medium_properties(m, ray.at(a + k * h));
+            const Real w = (k == 0 || k == steps) ? 1.0 : (k % 2 ? 4.0 : 2.0);
+            tau += (mp.sigma_a + mp.sigma_s) * (w * h / 3.0);
+        }
+    }
+    return tau;
+}
+
 void majorant_segments(const Medium &m, const Ray &ray, Real t_max, MajorantSegments &out) {
     out.count = 0;
     std::visit(Segments{ray, t_max, out}, m);

@@ -18,7 +18,7 @@ int Scene::add_medium(const Medium &m) {
 
 int Scene::add_light(const Light &l) {
     lights.push_back(l);
-    if (is_infinite(l)) environment_lights.push_back(int(lights.size()) - 1);
+    if (is_infinite(l)) infinite_lights.push_back(int(lights.size()) - 1);
     return int(lights.size()) - 1;
 }
 

@@ -1,0 +1,209 @@
+"""The atmosphere against the closed-form oracles of shared/README.md §3."""
+
+import math
+
+import numpy as np
+import pytest
+import volpath
+from volpath import _core
+from volpath.scene import ATMOSPHERE_PRESETS, rayleigh_coefficient
+from volpath.testing import chi2_directions
+
+import scenes as S
+
+R = 6360e3
+B = ATMOSPHERE_PRESETS["bruneton"]
+
+
+def air_scene(medium_params="", camera_origin="0, 1, 0", target="0, 1, -1", res=4, fov=30, spp=16, lights="",
+              max_depth=-1, up="0, 1, 0"):
+    cam = S.camera(res=res, fov=fov, origin=camera_origin, target=target, spp=spp, up=up,
+                   extra='<float name="far_clip" value="1e9"/>')
+    return volpath.load_string(S.scene(cam, f'<medium type="atmosphere" id="air">{medium_params}</medium>', lights,
+                                       max_depth=max_depth))
+
+
+# -- phase functions (oracle 4) --------------------------------------------------------------
+
+def test_phase_values_and_normalisation():
+    from scipy.integrate import quad
+
+    assert abs(_core.rayleigh_eval(1.0) - 0.119366) < 1e-6
+    assert abs(_core.cornette_shanks_eval(0.76, 1.0) - 2.8300) < 1e-4
+    assert abs(_core.cornette_shanks_eval(0.76, -1.0) - 0.00718) < 1e-5
+    mean_cos = quad(lambda mu: 2 * math.pi * mu * _core.cornette_shanks_eval(0.76, mu), -1, 1, epsabs=1e-12)[0]
+    assert abs(mean_cos - 0.8098) < 1e-4
+    for f in (lambda mu: _core.rayleigh_eval(mu), lambda mu: _core.cornette_shanks_eval(0.76, mu),
+              lambda mu: _core.cornette_shanks_eval(0.8, mu)):
+        assert abs(quad(lambda mu: 2 * math.pi * f(mu), -1, 1, epsabs=1e-12)[0] - 1) < 1e-9
+
+
+@pytest.mark.parametrize("channel", [0, 2])
+def test_air_phase_sampling_chi2(channel):
+    """The Rayleigh + Mie mixture is sampled per channel; chi-square against its pdf
+    (200 000 samples, rejection below p = 1e-4 as in tests/stats)."""
+    fraction = (0.7, 0.5, 0.9)
+    n = 200_000
+    u = np.random.default_rng(4).random((n, 3))
+    dirs, pdfs = _core.air_phase_sample(fraction, 0.76, channel, u)
+    marginal = lambda z: 2 * math.pi * _core.air_phase_pdf(fraction, 0.76, channel, z)
+    assert chi2_directions(dirs, None, n, z_marginal=marginal) > 1e-4
+
+
+# -- planet intersection (oracle 5) -----------------------------------------------------------
+
+@pytest.mark.parametrize("elevation,expected", [(-1.0, 57.3135), (-0.1, 588.561)])
+def test_planet_intersection_from_one_metre(elevation, expected):
+    e = math.radians(elevation)
+    roots = _core.sphere_roots((0, -R, 0), R, (0, 1, 0), (math.cos(e), math.sin(e), 0))
+    assert roots is not None
+    t = min(r for r in roots if r > 0)
+    assert abs(t - expected) / expected < 1e-6
+
+
+def test_horizon_distance():
+    h = 1.0
+    horizon = math.sqrt(h * (2 * R + h))
+    assert abs(horizon - 3566.51) < 0.01
+    # The tangent ray just grazes: distance to the tangent point along the horizontal
+    # direction tilted down by the horizon dip angle.
+    dip = math.acos(R / (R + h))
+    roots = _core.sphere_roots((0, -R, 0), R, (0, h, 0), (math.cos(dip), -math.sin(dip), 0))
+    assert roots is not None and abs(roots[0] - horizon) / horizon < 1e-6
+
+
+# -- transmittance (oracles 1, 2) --------------------------------------------------------------
+
+def vertical_tau(beta, H, top=60e3):
+    return beta * H * (1 - math.exp(-top / H))
+
+
+def test_vertical_transmittance_oracle():
+    scene = air_scene()
+    tau = np.array(_core.optical_depth(scene.native, 0, (0, 0, 0), (0, 1, 0), 60e3, 256))
+    T = np.exp(-tau)
+    # R, G, B = 680, 550, 440 nm
+    assert np.allclose(T, [0.9404, 0.8677, 0.7624], atol=1e-3)
+    # The closed form, component by component (ozone's tent integrates to 15 km of peak).
+    closed = (vertical_tau(np.array(B["rayleigh_scattering"]), 8e3) + vertical_tau(4.44e-6, 1.2e3) +
+              np.array(B["ozone_absorption"]) * 15e3)
+    assert np.allclose(tau, closed, rtol=1e-6)
+
+
+def test_ratio_tracking_is_unbiased_through_the_atmosphere():
+    """Ratio tracking along vertical, slanted and horizontal rays agrees with quadrature
+    within 5 standard errors of 20 000 estimates."""
+    scene = air_scene()
+    for d in [(0, 1, 0), (1, 0.2, 0), (1, 0.0, 0)]:
+        d = np.array(d) / np.linalg.norm(d)
+        roots = _core.sphere_roots((0, -R, 0), R + 60e3, (0, 0.1, 0), tuple(d))
+        t_max = roots[1]
+        tau = np.array(_core.optical_depth(scene.native, 0, (0, 0.1, 0), tuple(d), t_max, 4096))
+        mean, se = _core.ratio_tracking(scene.native, 0, (0, 0.1, 0), tuple(d), t_max, 20000, 9)
+        assert np.all(np.abs(np.array(mean) - np.exp(-tau)) <= 5 * np.array(se) + 1e-9), (d, mean, np.exp(-tau), se)
+
+
+def test_horizontal_air_mass():
+    """Oracle 2: Chapman air masses at R = 6360 km, and the horizontal optical depth."""
+    scene = air_scene('<boolean name="ozone" value="false"/><rgb name="mie_extinction" value="0"/>'
+                      '<rgb name="mie_scattering" value="0"/><rgb name="rayleigh_scattering" value="1e-6"/>')
+    roots = _core.sphere_roots((0, -R, 0), R + 60e3, (0, 0, 0), (1, 0, 0))
+    tau = _core.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
+    assert abs(tau / (1e-6 * 8e3) - 35.355) / 35.355 < 2e-3
+    scene = air_scene('<boolean name="ozone" value="false"/><float name="rayleigh_height" value="1200"/>'
+                      '<rgb name="mie_extinction" value="0"/><rgb name="mie_scattering" value="0"/>'
+                      '<rgb name="rayleigh_scattering" value="1e-6"/>')
+    tau = _core.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
+    assert abs(tau / (1e-6 * 1.2e3) - 91.249) / 91.249 < 2e-3
+
+
+# -- rendering ----------------------------------------------------------------------------------
+
+def test_single_scattering_at_the_zenith():
+    """Oracle 3: sun at the zenith, camera on the ground looking up. Every scattered path
+    has the same transmittance, so L = E exp(-tau_t) (tau_R p_R(1) + tau_Ms p_CS(1)).
+    The sun is a directional light here (a disc of 0.27 degrees changes L by < 0.1 %)."""
+    from volpath.testing import render_batches
+
+    scene = air_scene(camera_origin="0, 0.1, 0", target="0, 1, 0", up="0, 0, -1", fov=0.01, spp=16384, max_depth=2,
+                      lights='<emitter type="directional"><vector name="direction" value="0, -1, 0"/>'
+                             '<rgb name="irradiance" value="1"/></emitter>')
+    mean, se = render_batches(volpath.render, scene, 8, block=4)
+    tau_r = vertical_tau(np.array(B["rayleigh_scattering"]), 8e3)
+    tau_ms = vertical_tau(3.996e-6, 1.2e3)
+    tau_t = tau_r + vertical_tau(4.44e-6, 1.2e3) + np.array(B["ozone_absorption"]) * 15e3
+    expected = np.exp(-tau_t) * (tau_r * _core.rayleigh_eval(1.0) + tau_ms * _core.cornette_shanks_eval(0.8, 1.0))
+    mean, se = mean.reshape(3), se.reshape(3)
+    # Free flight finds a real collision in only ~5-15 % of the samples, so the noise is
+    # estimated from 8 independent batches of 16 x 16384 samples: 5 standard errors
+    # (about 1.5 %) for each channel.
+    assert np.all(np.abs(mean - expected) < 5 * se), (mean, expected, se)
+    assert np.all(se / expected < 0.006)
+
+
+def test_energy_is_conserved_in_a_furnace():
+    """Oracle 6: ground albedo 1, no absorption, uniform unit sky: radiance 1 everywhere."""
+    scene = air_scene('<boolean name="ozone" value="false"/><float name="mie_extinction" value="3.996e-6"/>'
+                      '<rgb name="ground_albedo" value="1"/>', camera_origin="0, 10, 0", target="0, 9.9, -1",
+                      res=6, fov=60, spp=64, lights=S.constant_env("1, 1, 1"))
+    image = volpath.render(scene, seed=1).astype(np.float64)
+    assert np.all(np.isfinite(image))
+    # Paths bounce between air and ground; 36 pixels x 64 spp. The spread per sample is
+    # below 1 (Russian roulette weights up to 1/0.95), so 5 standard errors is 0.02.
+    assert abs(image.mean() - 1) < 0.02, image.mean()
+
+
+def sky_scene(elevation, target, fov=5, spp=256, res=4):
+    return air_scene(camera_origin="0, 2, 0", target=target, fov=fov, spp=spp, res=res,
+                     lights=f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
+                            f'<float name="azimuth" value="180"/><rgb name="irradiance" value="1"/></emitter>')
+
+
+def test_noon_zenith_is_bluer_than_the_horizon():
+    zenith = volpath.render(sky_scene(70, "0.001, 3, 0")).reshape(-1, 3).mean(axis=0)
+    horizon = volpath.render(sky_scene(70, "0, 2.05, -1")).reshape(-1, 3).mean(axis=0)
+    # Blue over red: the zenith sky is far bluer than the whitish horizon.
+    assert zenith[2] / zenith[0] > 1.3 * horizon[2] / horizon[0], (zenith, horizon)
+
+
+def test_sun_disc_is_redder_at_sunrise():
+    """Seen through the whole air mass, the sun's disc loses blue first."""
+    def disc(elevation):
+        e = math.radians(elevation)
+        target = f"{0}, {2 + math.sin(e)}, {math.cos(e)}"
+        return volpath.render(sky_scene(elevation, target, fov=0.2, spp=16), max_depth=1).reshape(-1, 3).mean(axis=0)
+
+    low, high = disc(0.5), disc(30)
+    assert low[0] / low[2] > 5 * high[0] / high[2], (low, high)
+
+
+@pytest.mark.parametrize("elevation", [-20, -2, 0, 5, 90])
+@pytest.mark.parametrize("altitude", [0.1, 1e4, 1e6])
+def test_no_nan_or_negative_anywhere(elevation, altitude):
+    scene = air_scene(camera_origin=f"0, {altitude}, 0", target=f"0, {altitude - 0.2}, -1", res=6, fov=120, spp=4,
+                      lights=f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
+                             '<rgb name="irradiance" value="1"/></emitter>')
+    image = volpath.render(scene, seed=3)
+    assert np.all(np.isfinite(image)) and image.min() >= 0
+    assert scene.last_render["nonfinite_samples"] == 0
+
+
+def test_report_preset():
+    assert np.allclose(rayleigh_coefficient([680, 550, 440]), [5.197e-6, 1.214e-5, 2.965e-5], rtol=1e-3)
+    scene = air_scene('<string name="preset" value="report"/>')
+    m = scene.summary["media"][0]
+    assert m["planet_radius"] == 6378e3 and m["g"] == 0.76
+
+
+def test_one_majorant_or_many_agree():
+    """The majorant pieces change the sampling, not the answer (z-test, 5 s.e.)."""
+    from volpath.testing import render_batches
+
+    res = []
+    for pieces in (1, 16):
+        scene = air_scene(f'<integer name="majorant_pieces" value="{pieces}"/>', camera_origin="0, 2, 0",
+                          target="0, 2.2, -1", res=4, fov=40, spp=64,
+                          lights='<emitter type="sun"><float name="elevation" value="5"/></emitter>')
+        res.append(render_batches(volpath.render, scene, 6, block=2))
+    (a, sa), (b, sb) = res
+    assert np.max(np.abs(a - b) / np.sqrt(sa ** 2 + sb ** 2 + 1e-12)) < 5
