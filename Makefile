@@ -14,7 +14,7 @@ SPP ?= 16
 RES ?= 256
 JOBS ?= 2
 
-.PHONY: all setup test bench sunrise clean debian
+.PHONY: all setup test bench sunrise clean debian fuzz sanitize
 
 all: test
 
@@ -57,5 +57,22 @@ sunrise: setup
 	mkdir -p out
 	$(PY) -m volpath render scenes/test/fog_box.xml -o out/sunrise_placeholder.exr --spp $(SPP) -D res=$(RES)
 
+# Many more hostile inputs than `make test` runs.
+fuzz: setup
+	FUZZ_EXAMPLES=$${FUZZ_EXAMPLES:-20000} $(VENV)/bin/pytest -q tests/stability/test_fuzz.py
+
+# The core built with AddressSanitizer and UndefinedBehaviorSanitizer in its own
+# environment, then the native and stability tests (leak checking is off: CPython's
+# allocations at exit are not ours).
+SAN_VENV := .venv-sanitize
+sanitize: setup
+	test -x $(SAN_VENV)/bin/python || $(PYTHON) -m venv $(SAN_VENV)
+	$(SAN_VENV)/bin/pip install -q -r requirements.txt
+	$(SAN_VENV)/bin/pip install -q --no-build-isolation --no-deps -Cbuild-dir=build/sanitize \
+	  -Ccmake.define.VOLPATH_SANITIZE=ON .
+	cd tests && LD_PRELOAD="$$(g++ -print-file-name=libasan.so) $$(g++ -print-file-name=libubsan.so)" \
+	  ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+	  FUZZ_EXAMPLES=200 ../$(SAN_VENV)/bin/pytest -q -p no:cacheprovider native stability
+
 clean:
-	rm -rf build out $(VENV)
+	rm -rf build out $(VENV) $(SAN_VENV)

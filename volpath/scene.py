@@ -177,7 +177,7 @@ class _Params:
 
     def vec3(self, name, default=None):
         v = self.raw(name, default)
-        arr = np.asarray(v, dtype=np.float64) if v is not None else None
+        arr = np.asarray(v, dtype=np.float64) if isinstance(v, (list, tuple, np.ndarray)) else None
         if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
             raise self.error(f"'{name}' must be a 3-vector, got {_describe(v)}")
         return arr
@@ -186,8 +186,8 @@ class _Params:
         v = self.raw(name)
         if v is None:
             return np.eye(4)
-        m = np.asarray(v, dtype=np.float64)
-        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        m = np.asarray(v, dtype=np.float64) if isinstance(v, (list, tuple, np.ndarray)) else None
+        if m is None or m.shape != (4, 4) or not np.all(np.isfinite(m)):
             raise self.error(f"'{name}' must be a 4x4 transform")
         if abs(np.linalg.det(m[:3, :3])) < 1e-300:
             raise self.error(f"'{name}' is singular")
@@ -269,6 +269,13 @@ class _Builder:
         self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []    # (native medium index, centre, top radius)
+        self.loc = d.get("__loc__")
+
+    def params(self, d, kind):
+        """A plugin's parameters; remembers where it is for errors found later."""
+        p = _Params(d, kind)
+        self.loc = p.loc
+        return p
 
     def _index_ids(self, d):
         for k, v in d.items():
@@ -304,7 +311,16 @@ class _Builder:
 
     # -- top level -----------------------------------------------------------------------
     def build(self):
-        scene = _Params(self.d, "scene")
+        try:
+            return self._build()
+        except SceneError:
+            raise
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError, RuntimeError) as e:
+            # The native builder's checks, and whatever a malformed value slipped past.
+            raise SceneError(f"{where(self.loc)}invalid scene description ({e})") from None
+
+    def _build(self):
+        scene = self.params(self.d, "scene")
         integrator, sensor = None, None
         items = [(k, v) for k, v in self.d.items() if not k.startswith("__") and k != "type"]
         for key, v in items:
@@ -348,7 +364,7 @@ class _Builder:
         settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "tracer": "null_scattering"}
         if d is None:
             return settings
-        p = _Params(d, "integrator")
+        p = self.params(d, "integrator")
         if p.type not in INTEGRATORS:
             raise p.error(f"unknown integrator (expected one of: {', '.join(INTEGRATORS)})")
         settings["tracer"] = INTEGRATORS[p.type]
@@ -372,7 +388,7 @@ class _Builder:
     def sensor(self, d):
         if d is None:
             raise SceneError(f"{self.source or '<dict>'}: the scene has no sensor (camera)")
-        p = _Params(d, "sensor")
+        p = self.params(d, "sensor")
         if p.type not in ("perspective", "thinlens"):
             raise p.error("unknown sensor (expected 'perspective')")
         film = sampler = medium = None
@@ -392,12 +408,13 @@ class _Builder:
                 p.read.add(key)
         width, height, gaussian = 768, 576, True
         if film is not None:
-            fp = _Params(film, "film")
+            fp = self.params(film, "film")
             if fp.type != "hdrfilm":
                 raise fp.error("unknown film (expected 'hdrfilm')")
             width, height = fp.int("width", 768), fp.int("height", 576)
-            if not (1 <= width <= 1 << 15 and 1 <= height <= 1 << 15):
-                raise fp.error(f"film size {width}x{height} out of range (1..32768)")
+            if not (1 <= width <= 1 << 15 and 1 <= height <= 1 << 15) or width * height > 1 << 26:
+                raise fp.error(f"film size {width}x{height} out of range (each side 1..32768, "
+                               f"at most {1 << 26} pixels)")
             fp.raw("pixel_format"), fp.raw("component_format"), fp.raw("file_format"), fp.raw("banner")
             fp.raw("high_quality_edges")
             rfilter = None
@@ -406,7 +423,7 @@ class _Builder:
                     rfilter = film[key]
                     fp.read.add(key)
             if rfilter is not None:
-                rp = _Params(rfilter, "rfilter")
+                rp = self.params(rfilter, "rfilter")
                 if rp.type not in ("box", "gaussian"):
                     raise rp.error("unknown reconstruction filter (expected 'box' or 'gaussian')")
                 if rp.type == "gaussian" and rp.float("stddev", 0.5) != 0.5:
@@ -416,7 +433,7 @@ class _Builder:
             fp.check()
         spp = 4
         if sampler is not None:
-            sp = _Params(sampler, "sampler")
+            sp = self.params(sampler, "sampler")
             if sp.type not in ("independent", "stratified", "multijitter", "ldsampler", "orthogonal"):
                 raise sp.error("unknown sampler")
             spp = sp.int("sample_count", 4)
@@ -473,7 +490,7 @@ class _Builder:
         if id(d) in self.building:
             raise SceneError(f"{where(d.get('__loc__'))}cyclic bsdf definition")
         self.building.add(id(d))
-        p = _Params(d, "bsdf")
+        p = self.params(d, "bsdf")
         n = self.native
         if p.type == "twosided":
             inner = [k for k, v in d.items() if isinstance(v, dict) and _kind(self.resolve(v)) == "bsdf"]
@@ -543,7 +560,7 @@ class _Builder:
         if not phases:
             return 0.0
         p.read.add(phases[0])
-        pp = _Params(self.resolve(d[phases[0]]), "phase")
+        pp = self.params(self.resolve(d[phases[0]]), "phase")
         if pp.type == "isotropic":
             g = 0.0
         elif pp.type == "hg":
@@ -559,7 +576,7 @@ class _Builder:
         d = self.resolve(d)
         if id(d) in self.media:
             return self.media[id(d)]
-        p = _Params(d, "medium")
+        p = self.params(d, "medium")
         g = self.phase(p, d)
         p.raw("sample_emitters"), p.raw("has_spectral_extinction")
         scale = p.float("scale", 1.0, minimum=0.0)
@@ -664,7 +681,7 @@ class _Builder:
             grid = (np.float32(rgb[0]) * np.ones((1, 1, 1, 1), np.float32)) if np.all(rgb == rgb[0]) \
                 else rgb.astype(np.float32).reshape(1, 1, 1, 3)
             return grid, np.eye(4)
-        vp = _Params(v, "volume")
+        vp = self.params(v, "volume")
         if vp.type == "constvolume":
             rgb = vp.rgb("value", 1.0)
             vp.check()
@@ -693,7 +710,7 @@ class _Builder:
 
     # -- shapes ------------------------------------------------------------------------------
     def shape(self, d):
-        p = _Params(d, "shape")
+        p = self.params(d, "shape")
         to_world = p.transform()
         bsdf_index, radiance, interior, exterior = None, None, -1, -1
         for key, v in d.items():
@@ -706,7 +723,7 @@ class _Builder:
                     raise p.error("more than one bsdf")
                 bsdf_index = self.bsdf(r)
             elif kind == "emitter":
-                ep = _Params(r, "emitter")
+                ep = self.params(r, "emitter")
                 if ep.type != "area":
                     raise ep.error("only 'area' emitters can be attached to shapes")
                 radiance = ep.rgb("radiance", 1.0)
@@ -777,7 +794,7 @@ class _Builder:
 
     # -- emitters ------------------------------------------------------------------------------
     def emitter(self, d):
-        p = _Params(d, "emitter")
+        p = self.params(d, "emitter")
         n = self.native
         info = {"type": p.type, "loc": p.loc}
         if p.type == "point":

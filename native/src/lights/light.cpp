@@ -91,6 +91,7 @@ struct Sample {
         return true;
     }
     bool operator()(const AreaLight &l) const {
+        if (!(l.area > 0)) return false;  // only degenerate triangles: emits nothing
         const ShapeGeometry &sg = geometry.shapes[l.shape];
         out.delta = false;
         Vec3 p, n;
