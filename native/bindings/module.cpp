@@ -310,6 +310,23 @@ PYBIND11_MODULE(_core, m) {
     m.def("air_phase_pdf", [](Array3 rayleigh_fraction, double g, int channel, double mu) {
         return phase_pdf(RayleighMiePhase{vec(rayleigh_fraction), g}, mu)[channel];
     });
+    // Nearest hit of each ray (rows of o and d): t (inf on a miss) and the shape index.
+    m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d) {
+        if (!s.built) s.build();
+        const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
+        if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
+        py::array_t<double> t(os.size());
+        py::array_t<int> shape(os.size());
+        auto tt = t.mutable_unchecked<1>();
+        auto ss = shape.mutable_unchecked<1>();
+        for (size_t i = 0; i < os.size(); ++i) {
+            Intersection its;
+            const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its);
+            tt(i) = hit ? its.t : kInfinity;
+            ss(i) = hit ? its.shape : -1;
+        }
+        return py::make_tuple(t, shape);
+    });
     m.def("sphere_roots", [](Array3 center, double radius, Array3 o, Array3 d) -> py::object {
         double t0, t1;
         if (!sphere_roots(vec(center), radius, vec(o), normalize(vec(d)), t0, t1)) return py::none();

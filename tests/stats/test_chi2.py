@@ -22,7 +22,7 @@ def uniforms(n, dims, seed=1):
     return np.random.default_rng(seed).random((n, dims))
 
 
-@pytest.mark.parametrize("g", [-0.9, -0.3, 0.0, 0.5, 0.95])
+@pytest.mark.parametrize("g", [-0.999, -0.9, -0.3, 0.0, 0.5, 0.95, 0.999])
 def test_phase_hg(g):
     dirs, pdfs = _core.phase_sample(g, uniforms(N, 2))
     # The sampled pdf equals the phase function (exact sampling).
@@ -44,6 +44,8 @@ LIGHTS = {
     "rectangle": ('<shape type="rectangle"><transform name="to_world"><scale x="2" y="1"/><rotate x="1" angle="30"/>'
                   '<translate z="1.5"/></transform><emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>',
                   (0.2, 0.1, 3.0)),
+    "sun": ('<emitter type="sun"><float name="elevation" value="40"/><float name="angular_radius" value="0.05"/>'
+            '</emitter>', (0, 0, 0)),
     "constant": ('<emitter type="constant"><rgb name="radiance" value="1,1,1"/></emitter>', (0, 0, 0)),
 }
 

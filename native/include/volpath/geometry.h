@@ -81,7 +81,8 @@ private:
     Bounds primitive_bounds(const Primitive &p) const;
     uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
                              uint32_t begin, uint32_t end);
-    bool intersect_primitive(const Primitive &p, const Ray &ray, Real t_max,
+    struct ShearedRay;  // per-ray set-up of the watertight triangle test
+    bool intersect_primitive(const Primitive &p, const Ray &ray, const ShearedRay &sheared, Real t_max,
                              Intersection &its) const;
 };
 

@@ -168,7 +168,23 @@ uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3
     return node_index;
 }
 
-bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, Real t_max,
+// Watertight ray-triangle test (Woop, Benthin & Wald 2013): vertices are moved into a
+// frame where the ray runs along +z from the origin, and the 2D edge functions U, V, W
+// decide the hit. Edges shared by two triangles are evaluated identically from both
+// sides, so no ray slips between them.
+struct Geometry::ShearedRay {
+    int kx, ky, kz;
+    Real sx, sy, sz;
+    explicit ShearedRay(const Vec3 &d) {
+        const Vec3 a = abs(d);
+        kz = a.x > a.y ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+        kx = (kz + 1) % 3, ky = (kx + 1) % 3;
+        if (d[kz] < 0) std::swap(kx, ky);  // keep the winding
+        sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
+    }
+};
+
+bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const ShearedRay &sr, Real t_max,
                                    Intersection &its) const {
     const ShapeGeometry &s = shapes[prim.shape];
     if (s.is_sphere) {
@@ -182,30 +198,26 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, Real t
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
         its.n = its.ns = sp.flip_normals ? -n : n;
     } else {
-        // Moeller-Trumbore, in double.
         const TriangleMesh &m = meshes[s.index];
         const auto &tri = m.triangles[prim.index];
-        const Vec3 &p0 = m.positions[tri[0]];
-        const Vec3 e1 = m.positions[tri[1]] - p0, e2 = m.positions[tri[2]] - p0;
-        const Vec3 pvec = cross(ray.d, e2);
-        const Real det = dot(e1, pvec);
+        const Vec3 &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
+        const Vec3 a = p0 - ray.o, b = p1 - ray.o, c = p2 - ray.o;
+        const Real ax = a[sr.kx] - sr.sx * a[sr.kz], ay = a[sr.ky] - sr.sy * a[sr.kz];
+        const Real bx = b[sr.kx] - sr.sx * b[sr.kz], by = b[sr.ky] - sr.sy * b[sr.kz];
+        const Real cx = c[sr.kx] - sr.sx * c[sr.kz], cy = c[sr.ky] - sr.sy * c[sr.kz];
+        const Real u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
+        if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+        const Real det = u + v + w;
         if (det == 0) return false;
-        const Real inv_det = 1.0 / det;
-        const Vec3 tvec = ray.o - p0;
-        const Real u = dot(tvec, pvec) * inv_det;
-        if (u < 0 || u > 1) return false;
-        const Vec3 qvec = cross(tvec, e1);
-        const Real v = dot(ray.d, qvec) * inv_det;
-        if (v < 0 || u + v > 1) return false;
-        const Real t = dot(e2, qvec) * inv_det;
+        const Real t = (u * sr.sz * a[sr.kz] + v * sr.sz * b[sr.kz] + w * sr.sz * c[sr.kz]) / det;
         if (!(t > ray.t_min && t < t_max)) return false;
+        const Real b0 = u / det, b1 = v / det, b2 = w / det;
         its.t = t;
-        its.p = p0 + e1 * u + e2 * v;
-        its.n = normalize(cross(e1, e2));
+        its.p = p0 * b0 + p1 * b1 + p2 * b2;
+        its.n = normalize(cross(p1 - p0, p2 - p0));
         its.ns = its.n;
         if (!m.normals.empty()) {
-            const Vec3 ns = m.normals[tri[0]] * (1 - u - v) + m.normals[tri[1]] * u +
-                            m.normals[tri[2]] * v;
+            const Vec3 ns = m.normals[tri[0]] * b0 + m.normals[tri[1]] * b1 + m.normals[tri[2]] * b2;
             const Real len = length(ns);
             if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
         }
@@ -221,6 +233,7 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     auto inv = [](Real d) { return 1.0 / (d == 0 ? 1e-300 : d); };
     const Vec3 inv_d{inv(ray.d.x), inv(ray.d.y), inv(ray.d.z)};
     const bool negative[3] = {inv_d.x < 0, inv_d.y < 0, inv_d.z < 0};
+    const ShearedRay sheared(ray.d);
     Real t_max = ray.t_max;
     bool hit = false;
     uint32_t stack[64];
@@ -237,7 +250,7 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
         if (t_near <= t_far) {
             if (node.count > 0) {
                 for (uint32_t i = 0; i < node.count; ++i) {
-                    if (intersect_primitive(prims_[node.first + i], ray, t_max, its)) {
+                    if (intersect_primitive(prims_[node.first + i], ray, sheared, t_max, its)) {
                         hit = true;
                         t_max = its.t;
                     }
