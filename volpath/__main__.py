@@ -48,6 +48,9 @@ def _render(args, parser):
         bar.close()
     seconds = time.perf_counter() - start
     stats = scene.last_render
+    if stats.get("auto"):
+        tracer = stats["tracer"]
+        print(f"auto: {tracer}: " + "; ".join(stats["auto"]["reasons"]))
     write_exr(out, image, metadata={"volpath_version": __version__, "spp": spp, "tracer": tracer,
                                     "seed": args.seed, "seconds": seconds,
                                     "nonfinite_samples": stats["nonfinite_samples"]})
@@ -99,7 +102,7 @@ def main(argv=None):
     r.add_argument("scene")
     r.add_argument("-o", "--output", required=True, help="output .exr file")
     r.add_argument("--spp", type=int, help="samples per pixel (default: the scene's)")
-    r.add_argument("--tracer", choices=TRACERS, help="default: the scene's integrator")
+    r.add_argument("--tracer", choices=("auto",) + TRACERS, help="default: the scene's (usually auto)")
     r.add_argument("--threads", type=int, help="default: all cores")
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--max-depth", type=int, help="path segments (default: the scene's)")

@@ -3,18 +3,21 @@
 import os
 
 from . import _core
+from .auto import choose_tracer
 from .errors import RenderCancelled
 from .scene import TRACERS
 
 
-def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None):
+def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``)
     seed       the same seed gives a bit-identical image whatever the thread count
     threads    worker threads (default: all cores)
-    tracer     one of absorption, single, multiple, nee_mis, null_scattering
-               (default: the tracer the scene's integrator names)
+    tracer     "auto" or one of absorption, single, multiple, nee_mis, null_scattering
+               (default: the scene's, which is "auto" unless a lajolla `version` names one);
+               "auto" picks the cheapest tracer whose omissions stay below `tolerance`
+               and says why in scene.last_render["auto"]
     progress   callable(fraction_done) called about 20 times a second from the calling
                thread; returning False cancels the render (raises RenderCancelled)
     max_depth  path segments, as Mitsuba counts them (default: the scene's)
@@ -23,8 +26,13 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
     """
     tracer = tracer or scene.tracer
+    auto = None
+    if tracer == "auto":
+        chosen, reasons, bound = choose_tracer(scene, tolerance)
+        auto = {"tracer": chosen, "reasons": reasons, "bound": bound, "tolerance": tolerance}
+        tracer = chosen
     if tracer not in TRACERS:
-        raise ValueError(f"unknown tracer '{tracer}' (expected one of: {', '.join(TRACERS)})")
+        raise ValueError(f"unknown tracer '{tracer}' (expected auto or one of: {', '.join(TRACERS)})")
     spp = scene.spp if spp is None else int(spp)
     if spp < 1:
         raise ValueError(f"spp must be at least 1, got {spp}")
@@ -39,7 +47,7 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     image, stats = _core.render(scene.native, spp, int(seed), threads, TRACERS.index(tracer), max_depth,
                                 scene.rr_depth, scene.max_null_collisions, progress)
     stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth,
-                 threads=threads or os.cpu_count())
+                 threads=threads or os.cpu_count(), auto=auto)
     scene.last_render = stats
     if stats["cancelled"]:
         raise RenderCancelled(image)

@@ -20,7 +20,9 @@ TRACERS = ("absorption", "single", "multiple", "nee_mis", "null_scattering")
 # lajolla's integrator `version` numbering of its staged tracers.
 LAJOLLA_VERSIONS = {1: "absorption", 2: "single", 3: "multiple", 4: "nee_mis", 5: "nee_mis",
                     6: "null_scattering"}
-INTEGRATORS = {"volpath": "null_scattering", "volpathmis": "null_scattering", "path": "nee_mis"}
+# Mitsuba's integrators leave the choice to the scene analysis (tracer="auto"); a lajolla
+# `version` names one tracer explicitly.
+INTEGRATORS = {"volpath": "auto", "volpathmis": "auto", "path": "auto"}
 
 # Named indices of refraction (Mitsuba's table, the common entries).
 IOR = {"vacuum": 1.0, "air": 1.000277, "water": 1.3330, "water ice": 1.31, "fused quartz": 1.458,
@@ -361,7 +363,7 @@ class _Builder:
         return Scene(self.native, settings, self.summary, self.source)
 
     def integrator(self, d):
-        settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "tracer": "null_scattering"}
+        settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "tracer": "auto"}
         if d is None:
             return settings
         p = self.params(d, "integrator")
@@ -616,7 +618,9 @@ class _Builder:
             index = self.native.add_medium_grid(density, albedo_grid, tuple(albedo), scale, world_to_grid, g)
             self.summary["media"].append({"index": index, "type": "heterogeneous",
                                           "sigma_t_range": [float(density.min() * scale), float(density.max() * scale)],
-                                          "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc})
+                                          "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc,
+                                          "albedo": [float(albedo_grid.max())] * 3 if albedo_grid is not None
+                                          else albedo.tolist()})
         elif p.type == "atmosphere":
             index = self.atmosphere(p, scale)
         else:
@@ -712,7 +716,7 @@ class _Builder:
     def shape(self, d):
         p = self.params(d, "shape")
         to_world = p.transform()
-        bsdf_index, radiance, interior, exterior = None, None, -1, -1
+        bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
         for key, v in d.items():
             if not isinstance(v, dict) or key == "to_world":
                 continue
@@ -722,6 +726,7 @@ class _Builder:
                 if bsdf_index is not None:
                     raise p.error("more than one bsdf")
                 bsdf_index = self.bsdf(r)
+                bsdf_type = r.get("type")
             elif kind == "emitter":
                 ep = self.params(r, "emitter")
                 if ep.type != "area":
@@ -755,7 +760,7 @@ class _Builder:
             self.native.add_sphere(tuple(center), radius, flip, **common)
             bounds = np.array([center - radius, center + radius])
             self.summary["shapes"].append({"type": "sphere", "center": center.tolist(), "radius": radius,
-                                           "emitter": radiance is not None, "loc": p.loc})
+                                           "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
         else:
             normals = None
             if p.type == "rectangle":
@@ -779,7 +784,7 @@ class _Builder:
             self.native.add_mesh(positions, triangles, normals, **common)
             bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
             self.summary["shapes"].append({"type": p.type, "triangles": int(len(triangles)),
-                                           "emitter": radiance is not None, "loc": p.loc})
+                                           "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
         if interior >= 0:
             self.medium_bounds.setdefault(interior, []).append(bounds)
         if radiance is not None:

@@ -63,7 +63,7 @@ def test_mitsuba3_defaults_and_overrides():
     assert scene.summary["media"][0]["sigma_t"] == [2.0] * 3
     scene = volpath.load_string(MITSUBA3, sigma=5)
     assert scene.summary["media"][0]["sigma_t"] == [5.0] * 3
-    assert scene.tracer == "null_scattering"
+    assert scene.tracer == "auto"
 
 
 def test_load_file_and_meshes(tmp_path):
