@@ -14,7 +14,7 @@ SPP ?= 16
 RES ?= 256
 JOBS ?= 2
 
-.PHONY: all setup test bench sunrise clean debian fuzz sanitize
+.PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize
 
 all: test
 
@@ -51,6 +51,10 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 
 bench: setup $(VENV)/.bench
 	$(PY) bench/compare_mitsuba.py --out bench/RESULTS.md
+
+# The accuracy study: docs/accuracy.md and its plots (references cached in bench/cache/).
+accuracy: setup $(VENV)/.bench
+	$(PY) bench/accuracy/run.py
 
 # Until the sunrise pipeline lands, renders the bundled test scene to out/.
 sunrise: setup

@@ -8,7 +8,7 @@ below `tolerance` (a fraction of the image). The choice and its reasons are repo
 import math
 
 
-def choose_tracer(scene, tolerance=0.01):
+def choose_tracer(scene, tolerance=0.01, max_depth=-1):
     """Return (tracer, reasons, bound): bound is an upper estimate of what the choice
     leaves out, relative to what it renders (0 when it is exact)."""
     s = scene.summary
@@ -24,6 +24,10 @@ def choose_tracer(scene, tolerance=0.01):
     if any(k != "homogeneous" for k in kinds):
         return ("null_scattering", [f"{', '.join(k for k in kinds if k != 'homogeneous')} medium: delta tracking "
                                     "against majorants, ratio tracking on shadow rays", spectral], 0.0)
+    if max_depth in (1, 2):
+        # The depth limit already restricts the physics; the lighter tracer is exact for it.
+        tracer = "absorption" if max_depth == 1 else "single"
+        return tracer, [f"max_depth {max_depth}: {tracer} computes exactly the paths it allows", spectral], 0.0
     albedo_max = max(max(m["albedo"]) for m in media)
     if albedo_max == 0:
         if not surfaces and not delta_lights:

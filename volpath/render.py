@@ -26,9 +26,12 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
     """
     tracer = tracer or scene.tracer
+    max_depth = scene.max_depth if max_depth is None else int(max_depth)
+    if max_depth == 0 or max_depth < -1:
+        raise ValueError("max_depth must be -1 (unlimited) or at least 1")
     auto = None
     if tracer == "auto":
-        chosen, reasons, bound = choose_tracer(scene, tolerance)
+        chosen, reasons, bound = choose_tracer(scene, tolerance, max_depth)
         auto = {"tracer": chosen, "reasons": reasons, "bound": bound, "tolerance": tolerance}
         tracer = chosen
     if tracer not in TRACERS:
@@ -39,9 +42,6 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     threads = 0 if threads is None else int(threads)
     if threads < 0:
         raise ValueError(f"threads must be positive, got {threads}")
-    max_depth = scene.max_depth if max_depth is None else int(max_depth)
-    if max_depth == 0 or max_depth < -1:
-        raise ValueError("max_depth must be -1 (unlimited) or at least 1")
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
     image, stats = _core.render(scene.native, spp, int(seed), threads, TRACERS.index(tracer), max_depth,

@@ -77,3 +77,10 @@ def test_cli_reports_the_choice(tmp_path):
     r = subprocess.run([sys.executable, "-m", "volpath", "render", str(tmp_path / "s.xml"), "-o",
                         str(tmp_path / "o.exr"), "-q"], capture_output=True, text=True)
     assert r.returncode == 0 and "auto: absorption: media only absorb" in r.stdout
+
+
+def test_depth_limit_selects_the_exact_lighter_tracer():
+    scene = volpath.load_string(S.scene(S.camera(res=8), S.homogeneous("m", "1", "0.8"), S.medium_sphere("m"),
+                                        S.point_light(), max_depth=2))
+    assert auto_choice(scene)["tracer"] == "single"
+    assert auto_choice(scene, max_depth=1)["tracer"] == "absorption"

@@ -46,12 +46,16 @@ struct Scene {
     int add_medium(const Medium &m);
     int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
-    int add_light(const Light &l);
+    int add_light(const Light &l);  // counts point_and_directional
     void build();
 
     Real light_select_pdf() const { return lights.empty() ? 0.0 : 1.0 / Real(lights.size()); }
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
     bool has_heterogeneous_media() const;
+    // Whether a ray can hit an emitter (area lights, lights at infinity); with only point
+    // and directional lights, light arrives by next-event estimation alone.
+    bool has_hittable_emitters() const { return lights.size() > point_and_directional; }
+    size_t point_and_directional = 0;
     std::string describe() const;
 };
 

@@ -149,6 +149,9 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
     Vec3 prev_p = ray.o;
     int null_collisions = 0, null_crossings = 0;
 
+    // No further scattering allowed: only emitters hit by the next ray could still count.
+    auto last_vertex = [&] { return feat.max_depth >= 0 && depth + 1 >= feat.max_depth; };
+
     // Emission found by following the path: weighted against NEE where both can find it.
     auto add_emission = [&](const Spectrum &Le, Real pdf_light_dir) {
         if (is_black(Le)) return;
@@ -206,8 +209,8 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
                                                        pdf_d = phase_pdf(phase, mu);
                                                        return phase_eval(phase, mu);
                                                    });
-                                if (!feat.emission_after_scatter) {
-                                    terminated = true;  // single scattering is complete
+                                if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) {
+                                    terminated = true;  // nothing left that the path could find
                                     return false;
                                 }
                             }
@@ -303,7 +306,7 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
                                    pdf_d = Spectrum(bsdf_pdf(bsdf, wi, wo));
                                    return bsdf_eval(bsdf, wi, wo);
                                });
-            if (!feat.emission_after_scatter) return L;
+            if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return L;
         }
         BSDFSample bs;
         if (!bsdf_sample(bsdf, wi, sampler.next_1d(), sampler.next_2d(), bs)) return L;

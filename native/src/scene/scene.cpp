@@ -18,6 +18,7 @@ int Scene::add_medium(const Medium &m) {
 
 int Scene::add_light(const Light &l) {
     lights.push_back(l);
+    if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l)) ++point_and_directional;
     if (is_infinite(l)) infinite_lights.push_back(int(lights.size()) - 1);
     return int(lights.size()) - 1;
 }
