@@ -615,7 +615,11 @@ class _Builder:
             if np.any(albedo > 1) or (albedo_grid is not None and albedo_grid.max() > 1):
                 raise p.error("'albedo' must be at most 1")
             world_to_grid = np.linalg.inv(to_world)
-            index = self.native.add_medium_grid(density, albedo_grid, tuple(albedo), scale, world_to_grid, g)
+            majorant_res = p.int("majorant_resolution", 8)
+            if not 1 <= majorant_res <= 20:
+                raise p.error("'majorant_resolution' must be in 1..20 (1: one global majorant)")
+            index = self.native.add_medium_grid(density, albedo_grid, tuple(albedo), scale, world_to_grid, g,
+                                                majorant_res)
             self.summary["media"].append({"index": index, "type": "heterogeneous",
                                           "sigma_t_range": [float(density.min() * scale), float(density.max() * scale)],
                                           "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc,
@@ -653,9 +657,9 @@ class _Builder:
             raise p.error(f"'g' must be in (-1, 1), got {g}")
         h_r = p.float("rayleigh_height", preset["rayleigh_height"], positive=True) / unit
         h_m = p.float("mie_height", preset["mie_height"], positive=True) / unit
-        pieces = p.int("majorant_pieces", 16)
-        if not 1 <= pieces <= 32:
-            raise p.error("'majorant_pieces' must be in 1..32")
+        pieces = p.int("majorant_pieces", 4)
+        if not 1 <= pieces <= 16:
+            raise p.error("'majorant_pieces' must be in 1..16")
         albedo = p.rgb("ground_albedo", preset["ground_albedo"])
         if np.any(albedo > 1):
             raise p.error("'ground_albedo' must be at most 1")

@@ -162,8 +162,9 @@ PYBIND11_MODULE(_core, m) {
              py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0)
         .def("add_medium_grid",
              [](Scene &s, const FloatArray &density, std::optional<FloatArray> albedo_grid, Array3 albedo,
-                double scale, const DoubleArray &world_to_grid, double g) {
+                double scale, const DoubleArray &world_to_grid, double g, int majorant_res) {
                  GridMedium gm;
+                 gm.majorant_res = majorant_res;
                  gm.density = voxel_grid(density);
                  if (albedo_grid) gm.albedo_grid = voxel_grid(*albedo_grid);
                  gm.albedo = vec(albedo);
@@ -173,7 +174,7 @@ PYBIND11_MODULE(_core, m) {
                  return s.add_medium(gm);
              },
              py::arg("density"), py::arg("albedo_grid"), py::arg("albedo"), py::arg("scale"),
-             py::arg("world_to_grid"), py::arg("g") = 0.0)
+             py::arg("world_to_grid"), py::arg("g") = 0.0, py::arg("majorant_res") = 8)
         .def("add_mesh",
              [](Scene &s, const DoubleArray &positions, const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                 std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
@@ -220,7 +221,7 @@ PYBIND11_MODULE(_core, m) {
              },
              py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
              py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
-             py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 16)
+             py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4)
         .def("add_sun",
              [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
                  if (!(angular_radius > 0 && angular_radius < 0.5))
@@ -293,6 +294,29 @@ PYBIND11_MODULE(_core, m) {
     });
     m.def("phase_eval", [](double g, double mu) { return phase_eval(phase(g), mu)[0]; });
     m.def("rayleigh_eval", &rayleigh_eval);
+    // Majorant pieces of a medium along a ray: (t0, t1, sigma_maj) rows.
+    m.def("majorant_segments", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
+        MajorantIterator pieces(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
+        std::vector<std::array<double, 5>> rows;
+        MajorantSegment g;
+        while (pieces.next(g)) rows.push_back({g.t0, g.t1, g.sigma_maj.x, g.sigma_maj.y, g.sigma_maj.z});
+        py::array_t<double> out({rows.size(), size_t(5)});
+        auto r = out.mutable_unchecked<2>();
+        for (size_t i = 0; i < rows.size(); ++i)
+            for (int j = 0; j < 5; ++j) r(i, j) = rows[i][j];
+        return out;
+    });
+    m.def("medium_sigma_t", [](Scene &s, int medium, const DoubleArray &p) {
+        const std::vector<Vec3> ps = points(p, "points");
+        py::array_t<double> out({ps.size(), size_t(3)});
+        auto r = out.mutable_unchecked<2>();
+        for (size_t i = 0; i < ps.size(); ++i) {
+            const MediumProperties mp = medium_properties(s.media.at(size_t(medium)), ps[i]);
+            const Spectrum st = mp.sigma_a + mp.sigma_s;
+            r(i, 0) = st.x, r(i, 1) = st.y, r(i, 2) = st.z;
+        }
+        return out;
+    });
     m.def("cornette_shanks_eval", &cornette_shanks_eval);
     m.def("air_phase_sample", [](Array3 rayleigh_fraction, double g, int channel, const DoubleArray &u) {
         const size_t n = size_t(u.shape(0));

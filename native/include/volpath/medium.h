@@ -27,15 +27,25 @@ struct VoxelGrid {
     Spectrum max_value() const;
 };
 
+// Local majorants: the grid's unit cube cut into res^3 cells, each holding the largest
+// density any trilinear lookup inside it can return (the voxels whose interpolation
+// support reaches into the cell). Rays walk it by DDA; res 1 is one global majorant.
+struct MajorantGrid {
+    int res = 1;
+    std::vector<Spectrum> cell_max;  // x fastest
+    const Spectrum &at(int x, int y, int z) const { return cell_max[(size_t(z) * res + y) * res + x]; }
+};
+
 // sigma_t(x) = scale * density(x), sigma_s = albedo * sigma_t; the albedo is a grid or a
-// constant. One global majorant for now (max density * scale per channel).
+// constant. Majorants come from a MajorantGrid of `majorant_res` cells per axis.
 struct GridMedium {
     VoxelGrid density;
     VoxelGrid albedo_grid;  // empty: use `albedo`
     Spectrum albedo{1.0};
     Real scale = 1;
     Transform world_to_grid;
-    Spectrum sigma_maj;
+    int majorant_res = 8;  // measured: 8 beats 16 and a global majorant (3x on a sparse cloud)
+    MajorantGrid majorants;
     PhaseFunction phase;
 };
 
@@ -54,7 +64,7 @@ struct AtmosphereMedium {
     Real mie_g = 0.8;
     Spectrum ozone_sigma_a{0.650e-6, 1.881e-6, 0.085e-6};  // at the peak of the tent
     Real ozone_bottom = 10e3, ozone_peak = 25e3, ozone_top = 40e3;
-    int pieces = 16;  // majorant pieces per ray segment
+    int pieces = 4;  // majorant pieces per ray segment (measured: 1-4 cost the same, 16 twice as much)
 
     Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }
     Real ozone_profile(Real h) const;
@@ -78,12 +88,25 @@ struct MajorantSegment {
     Real t0 = 0, t1 = 0;
     Spectrum sigma_maj;
 };
-constexpr int kMaxMajorantSegments = 32;
-struct MajorantSegments {
-    MajorantSegment seg[kMaxMajorantSegments];
-    int count = 0;
+constexpr int kMaxMajorantGridRes = 20;
+constexpr int kMaxMajorantSegments = 16;  // atmosphere pieces
+
+// Walks the majorant pieces along a ray in order, lazily: a grid's cells come from a 3D
+// DDA one at a time (a path that scatters early never pays for the rest of the ray);
+// other media list their few pieces up front.
+class MajorantIterator {
+public:
+    MajorantIterator(const Medium &m, const Ray &ray, Real t_max);
+    bool next(MajorantSegment &seg);
+
+private:
+    MajorantSegment list_[kMaxMajorantSegments];
+    int count_ = 0, index_ = 0;
+    // DDA state (grid media only).
+    const GridMedium *grid_ = nullptr;
+    int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
+    Real t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0}, t_ = 0, t_end_ = 0;
 };
-void majorant_segments(const Medium &m, const Ray &ray, Real t_max, MajorantSegments &out);
 
 // Tentative collisions against the majorant, distances sampled in `channel` (pbrt's
 // SampleT_maj). At each collision the callback gets the point, the coefficients there,
@@ -97,12 +120,11 @@ Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps);
 template <typename Callback>
 Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel,
                       Sampler &rng, Callback &&callback) {
-    MajorantSegments segments;
-    majorant_segments(medium, ray, t_max, segments);
+    MajorantIterator pieces(medium, ray, t_max);
+    MajorantSegment seg;
     // T_maj accumulates across pieces until the next tentative collision.
     Spectrum T_maj(1.0);
-    for (int i = 0; i < segments.count; ++i) {
-        const MajorantSegment &seg = segments.seg[i];
+    while (pieces.next(seg)) {
         const Real sigma_c = seg.sigma_maj[channel];
         if (sigma_c <= 0) {
             T_maj *= exp(-seg.sigma_maj * (seg.t1 - seg.t0));

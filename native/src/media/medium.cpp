@@ -106,17 +106,16 @@ bool clip_to_grid(const GridMedium &m, const Ray &ray, Real t_max, Real &t0, Rea
     return t0 < t1;
 }
 
-struct Segments {
+// Pieces of homogeneous and atmospheric media, listed up front.
+struct ListPieces {
     const Ray &ray;
     Real t_max;
-    MajorantSegments &out;
+    MajorantSegment *out;
+    int &count;
     void operator()(const HomogeneousMedium &m) const {
-        if (t_max > ray.t_min) out.seg[out.count++] = {ray.t_min, t_max, m.sigma_a + m.sigma_s};
+        if (t_max > ray.t_min) out[count++] = {ray.t_min, t_max, m.sigma_a + m.sigma_s};
     }
-    void operator()(const GridMedium &m) const {
-        Real t0, t1;
-        if (clip_to_grid(m, ray, t_max, t0, t1)) out.seg[out.count++] = {t0, t1, m.sigma_maj};
-    }
+    void operator()(const GridMedium &) const {}  // walked lazily by DDA
     // Clip to the top of the atmosphere, cut into pieces, and bound each piece by the
     // coefficients at its lowest altitude. Altitude along a line is convex in t, so its
     // minimum over [a, b] is at the closest approach to the centre clamped to [a, b]
@@ -139,7 +138,7 @@ struct Segments {
             const Spectrum sigma_maj = m.rayleigh_sigma_s * r + (m.mie_sigma_s + m.mie_sigma_a) * mie +
                                        m.ozone_sigma_a * m.ozone_profile(h_oz);
             // A small safety factor covers rounding in the altitude of the lowest point.
-            out.seg[out.count++] = {a, b, sigma_maj * (1.0 + 1e-9)};
+            out[count++] = {a, b, sigma_maj * (1.0 + 1e-9)};
         }
     }
 };
@@ -151,21 +150,54 @@ MediumProperties medium_properties(const Medium &m, const Vec3 &p) {
 
 PhaseFunction medium_phase(const Medium &m, const Vec3 &p) { return std::visit(Phase{p}, m); }
 
+namespace {
+// Largest value of the voxels a trilinear lookup can blend anywhere in cell [lo, hi)
+// along one axis: centres sit at (i + 0.5) / res, so a point u blends voxels
+// floor(u res - 0.5) and the next, clamped at the border.
+void voxel_range(Real lo, Real hi, int res, int &i0, int &i1) {
+    i0 = std::clamp(int(std::floor(lo * res - 0.5)), 0, res - 1);
+    i1 = std::clamp(int(std::floor(hi * res - 0.5)) + 1, 0, res - 1);
+}
+
+MajorantGrid build_majorants(const VoxelGrid &g, int res) {
+    MajorantGrid mg;
+    mg.res = res;
+    mg.cell_max.assign(size_t(res) * res * res, Spectrum(0.0));
+    for (int cz = 0; cz < res; ++cz)
+        for (int cy = 0; cy < res; ++cy)
+            for (int cx = 0; cx < res; ++cx) {
+                int x0, x1, y0, y1, z0, z1;
+                voxel_range(Real(cx) / res, Real(cx + 1) / res, g.res[0], x0, x1);
+                voxel_range(Real(cy) / res, Real(cy + 1) / res, g.res[1], y0, y1);
+                voxel_range(Real(cz) / res, Real(cz + 1) / res, g.res[2], z0, z1);
+                Spectrum m(0.0);
+                for (int z = z0; z <= z1; ++z)
+                    for (int y = y0; y <= y1; ++y)
+                        for (int x = x0; x <= x1; ++x) {
+                            const size_t base = ((size_t(z) * g.res[1] + y) * g.res[0] + x) * g.channels;
+                            m = max(m, g.channels == 1 ? Spectrum(g.data[base])
+                                                       : Spectrum(g.data[base], g.data[base + 1], g.data[base + 2]));
+                        }
+                mg.cell_max[(size_t(cz) * res + cy) * res + cx] = m;
+            }
+    return mg;
+}
+}  // namespace
+
 void prepare_medium(Medium &m) {
     if (auto *grid = std::get_if<GridMedium>(&m)) {
-        // Trilinear interpolation never exceeds the largest voxel, so the grid maximum
-        // bounds sigma_t everywhere.
-        grid->sigma_maj = grid->density.max_value() * grid->scale;
+        const int res = std::clamp(grid->majorant_res, 1, kMaxMajorantGridRes);
+        grid->majorants = build_majorants(grid->density, res);
     }
 }
 
 Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps) {
-    MajorantSegments segments;
-    majorant_segments(m, ray, t_max, segments);
+    MajorantIterator pieces(m, ray, t_max);
+    MajorantSegment seg;
     steps += steps % 2;
     Spectrum tau(0.0);
-    for (int i = 0; i < segments.count; ++i) {
-        const Real a = segments.seg[i].t0, h = (segments.seg[i].t1 - a) / steps;
+    while (pieces.next(seg)) {
+        const Real a = seg.t0, h = (seg.t1 - a) / steps;
         for (int k = 0; k <= steps; ++k) {
             const MediumProperties mp = medium_properties(m, ray.at(a + k * h));
             const Real w = (k == 0 || k == steps) ? 1.0 : (k % 2 ? 4.0 : 2.0);
@@ -175,9 +207,64 @@ Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps) {
     return tau;
 }
 
-void majorant_segments(const Medium &m, const Ray &ray, Real t_max, MajorantSegments &out) {
-    out.count = 0;
-    std::visit(Segments{ray, t_max, out}, m);
+// 3D DDA through the majorant cells (Amanatides & Woo), in grid space where the ray's
+// parameter is still the world distance.
+MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) {
+    if (const auto *g = std::get_if<GridMedium>(&m)) {
+        Real t0, t1;
+        if (!clip_to_grid(*g, ray, t_max, t0, t1)) return;
+        grid_ = g;
+        const int res = g->majorants.res;
+        const Vec3 o = g->world_to_grid.point(ray.o), d = g->world_to_grid.vector(ray.d);
+        const Vec3 p0 = o + d * t0;
+        for (int a = 0; a < 3; ++a) {
+            cell_[a] = std::clamp(int(p0[a] * res), 0, res - 1);
+            if (d[a] == 0) {
+                step_[a] = 0, t_next_[a] = kInfinity, t_delta_[a] = kInfinity;
+                continue;
+            }
+            step_[a] = d[a] > 0 ? 1 : -1;
+            const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) / res;
+            t_next_[a] = t0 + (boundary - p0[a]) / d[a];
+            t_delta_[a] = 1.0 / (res * std::abs(d[a]));
+        }
+        t_ = t0, t_end_ = t1;
+        return;
+    }
+    std::visit(ListPieces{ray, t_max, list_, count_}, m);
+}
+
+bool MajorantIterator::next(MajorantSegment &seg) {
+    if (!grid_) {
+        if (index_ >= count_) return false;
+        seg = list_[index_++];
+        return true;
+    }
+    const MajorantGrid &mg = grid_->majorants;
+    while (t_ < t_end_) {
+        const bool inside = cell_[0] >= 0 && cell_[0] < mg.res && cell_[1] >= 0 && cell_[1] < mg.res &&
+                            cell_[2] >= 0 && cell_[2] < mg.res;
+        if (!inside) {
+            // Rounding left a sliver at the far end: cover it with the global bound.
+            Spectrum global(0.0);
+            for (const Spectrum &c : mg.cell_max) global = max(global, c);
+            seg = {t_, t_end_, global * grid_->scale};
+            t_ = t_end_;
+            return true;
+        }
+        const int axis = t_next_[0] < t_next_[1] ? (t_next_[0] < t_next_[2] ? 0 : 2) : (t_next_[1] < t_next_[2] ? 1 : 2);
+        const Real t_end = std::min(t_next_[axis], t_end_);
+        const Spectrum sigma_maj = mg.at(cell_[0], cell_[1], cell_[2]) * grid_->scale;
+        const Real start = t_;
+        t_ = t_end;
+        cell_[axis] += step_[axis];
+        t_next_[axis] += t_delta_[axis];
+        if (t_end > start) {
+            seg = {start, t_end, sigma_maj};
+            return true;
+        }
+    }
+    return false;
 }
 
 }  // namespace volpath
