@@ -14,7 +14,7 @@ SPP ?= 16
 RES ?= 256
 JOBS ?= 2
 
-.PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize
+.PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize wheel
 
 all: test
 
@@ -52,6 +52,13 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 bench: setup $(VENV)/.bench
 	$(PY) bench/compare_mitsuba.py --out bench/RESULTS.md
 
+# The self-contained manylinux wheel that the Blender extension bundles (dist/).
+wheel: setup
+	rm -rf dist && mkdir -p dist
+	$(PIP) wheel -q --no-build-isolation --no-deps -Cbuild-dir=build/wheel -w dist/raw .
+	$(PY) -m auditwheel repair -q -w dist dist/raw/volpath-*.whl
+	rm -rf dist/raw && ls dist
+
 # The accuracy study: docs/accuracy.md and its plots (references cached in bench/cache/).
 accuracy: setup $(VENV)/.bench
 	$(PY) bench/accuracy/run.py
@@ -79,4 +86,4 @@ sanitize: setup
 	  FUZZ_EXAMPLES=200 ../$(SAN_VENV)/bin/pytest -q -p no:cacheprovider native stability
 
 clean:
-	rm -rf build out $(VENV) $(SAN_VENV)
+	rm -rf build out dist $(VENV) $(SAN_VENV)
