@@ -153,3 +153,22 @@ def test_bad_grid_files(tmp_path):
                       f'<string name="filename" value="{name}.vol"/></volume></medium>', S.medium_cube("m"))
         with pytest.raises(volpath.SceneError, match=msg):
             volpath.load_string(xml, base_dir=str(tmp_path))
+
+
+def test_load_dict_in_mitsubas_dictionary_form():
+    to_world = np.diag([-1.0, 1.0, -1.0, 1.0])
+    to_world[2, 3] = 5  # at z = 5 looking down -z
+    scene = volpath.load_dict({
+        "type": "scene",
+        "sensor": {"type": "perspective", "fov": 40.0, "to_world": to_world,
+                   "film": {"type": "hdrfilm", "width": 8, "height": 8, "rfilter": {"type": "box"}},
+                   "sampler": {"type": "independent", "sample_count": 4}},
+        "fog": {"type": "homogeneous", "sigma_t": 1.0, "albedo": 0.0},
+        "ball": {"type": "sphere", "radius": 1.0, "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": "fog"}},
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [1, 1, 1]}},
+    })
+    image = volpath.render(scene)
+    assert scene.spp == 4 and image.shape == (8, 8, 3)
+    assert np.allclose(image[0, 0], 1) and image[4, 4, 0] < 0.2  # through the sphere: about exp(-2)
+    with pytest.raises(volpath.SceneError, match="'radius' must be a float"):
+        volpath.load_dict({"type": "scene", "s": {"type": "sphere", "radius": "big"}})

@@ -81,31 +81,28 @@ def test_mutated_scenes(grid_dir, data):
         assert np.all(np.isfinite(image)) and image.min() >= 0
 
 
+def load_grid_file(grid_dir, name, raw):
+    """Load a scene whose medium reads the grid file `name` holding `raw`: it loads, or
+    raises a SceneError that names the file."""
+    (grid_dir / name).write_bytes(raw)
+    xml = S.scene(S.camera(res=2, spp=1), '<medium type="heterogeneous" id="m"><volume type="gridvolume" '
+                  f'name="sigma_t"><string name="filename" value="{name}"/></volume></medium>', S.medium_cube("m"))
+    try:
+        volpath.load_string(xml, base_dir=str(grid_dir))
+    except volpath.SceneError as e:
+        assert name in str(e)
+
+
 @SETTINGS
 @given(header=st.binary(min_size=0, max_size=60), values=st.lists(st.floats(allow_nan=True, allow_infinity=True,
                                                                               width=32), max_size=20))
 def test_hostile_vol_files(grid_dir, header, values):
-    path = grid_dir / "hostile.vol"
-    raw = header + struct.pack(f"<{len(values)}f", *values)
-    path.write_bytes(raw)
-    xml = S.scene(S.camera(res=2, spp=1), '<medium type="heterogeneous" id="m"><volume type="gridvolume" '
-                  'name="sigma_t"><string name="filename" value="hostile.vol"/></volume></medium>', S.medium_cube("m"))
-    try:
-        volpath.load_string(xml, base_dir=str(grid_dir))
-    except volpath.SceneError as e:
-        assert "hostile.vol" in str(e)
+    load_grid_file(grid_dir, "hostile.vol", header + struct.pack(f"<{len(values)}f", *values))
 
 
 @SETTINGS
-@given(dims=st.tuples(st.integers(-5, 1 << 31 - 1), st.integers(-5, 1 << 20), st.integers(-5, 1 << 20)),
+@given(dims=st.tuples(st.integers(-5, 1 << 30), st.integers(-5, 1 << 20), st.integers(-5, 1 << 20)),
        channels=st.integers(-1, 5), version=st.integers(0, 255), encoding=st.integers(-2, 4), extra=st.integers(0, 64))
 def test_vol_headers_checked_before_allocating(grid_dir, dims, channels, version, encoding, extra):
-    path = grid_dir / "header.vol"
-    path.write_bytes(b"VOL" + bytes([version]) + struct.pack("<5i", encoding, *dims, channels) +
-                     struct.pack("<6f", 0, 0, 0, 1, 1, 1) + b"\0" * (4 * extra))
-    xml = S.scene(S.camera(res=2, spp=1), '<medium type="heterogeneous" id="m"><volume type="gridvolume" '
-                  'name="sigma_t"><string name="filename" value="header.vol"/></volume></medium>', S.medium_cube("m"))
-    try:
-        volpath.load_string(xml, base_dir=str(grid_dir))
-    except volpath.SceneError as e:
-        assert "header.vol" in str(e)
+    load_grid_file(grid_dir, "header.vol", b"VOL" + bytes([version]) + struct.pack("<5i", encoding, *dims, channels) +
+                   struct.pack("<6f", 0, 0, 0, 1, 1, 1) + b"\0" * (4 * extra))
