@@ -117,23 +117,31 @@ private:
 // intervals on each majorant piece (a deterministic reference for the tests).
 Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps);
 
+// Majorant optical depth over [ray.t_min, t_max], per channel.
+Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max);
+
+// `forced_probability` > 0 forces a first tentative collision within the segment: it is
+// the probability 1 - exp(-tau_maj) that the channel's free flight would have collided
+// there, and the first distance is drawn from the flight conditioned on colliding (the
+// caller weights by that probability and covers the no-collision case separately).
+// The optical depth to the next collision is carried across pieces (the exponential
+// distribution is memoryless, so this equals resampling at each piece).
 template <typename Callback>
 Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel,
-                      Sampler &rng, Callback &&callback) {
+                      Sampler &rng, Callback &&callback, Real forced_probability = 0) {
     MajorantIterator pieces(medium, ray, t_max);
     MajorantSegment seg;
     // T_maj accumulates across pieces until the next tentative collision.
     Spectrum T_maj(1.0);
+    Real tau = forced_probability > 0 ? -std::log1p(-rng.next_1d() * forced_probability)
+                                      : -std::log1p(-rng.next_1d());
     while (pieces.next(seg)) {
         const Real sigma_c = seg.sigma_maj[channel];
-        if (sigma_c <= 0) {
-            T_maj *= exp(-seg.sigma_maj * (seg.t1 - seg.t0));
-            continue;
-        }
         Real t = seg.t0;
         for (;;) {
-            const Real dt = -std::log1p(-rng.next_1d()) / sigma_c;
+            const Real dt = sigma_c > 0 ? tau / sigma_c : kInfinity;
             if (t + dt >= seg.t1) {
+                tau -= sigma_c * (seg.t1 - t);
                 T_maj *= exp(-seg.sigma_maj * (seg.t1 - t));
                 break;
             }
@@ -142,6 +150,7 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
             const Vec3 p = ray.at(t);
             if (!callback(p, t, medium_properties(medium, p), seg.sigma_maj, T_maj)) return Spectrum(1.0);
             T_maj = Spectrum(1.0);
+            tau = -std::log1p(-rng.next_1d());
         }
     }
     return T_maj;

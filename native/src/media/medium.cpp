@@ -191,6 +191,14 @@ void prepare_medium(Medium &m) {
     }
 }
 
+Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max) {
+    MajorantIterator pieces(m, ray, t_max);
+    MajorantSegment seg;
+    Spectrum tau(0.0);
+    while (pieces.next(seg)) tau += seg.sigma_maj * (seg.t1 - seg.t0);
+    return tau;
+}
+
 Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps) {
     MajorantIterator pieces(m, ray, t_max);
     MajorantSegment seg;
