@@ -121,3 +121,16 @@ def test_nested_media_boundaries():
     image = volpath.render(volpath.load_string(xml), tracer="absorption")
     expected = math.exp(-0.5 * 2 - 2 * 2)  # 2 units of outer, 2 of inner along the axis
     assert abs(image[4, 4, 0] - expected) / expected < 1e-3
+
+
+@pytest.mark.parametrize("tracer", SCATTERING_TRACERS)
+def test_white_furnace_with_the_camera_inside(tracer):
+    """A camera inside a chromatic albedo-1 medium splits its first segment into a
+    no-collision and a forced-collision branch; together they still return exactly 1."""
+    xml = S.scene(S.camera(res=8, fov=60, spp=32, origin="0, 0, 0.5", medium="m"),
+                  S.homogeneous("m", "1, 2, 4", "1", g=0.5), S.medium_sphere("m", radius=2), S.constant_env())
+    scene = volpath.load_string(xml)
+    mean, se = render_batches(volpath.render, scene, 4, tracer=tracer)
+    image_mean = mean.mean(axis=(0, 1))
+    image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
+    assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)

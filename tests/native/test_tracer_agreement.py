@@ -86,3 +86,12 @@ def test_heterogeneous_media_need_null_scattering(tmp_path):
     with pytest.raises(ValueError, match="null_scattering"):
         volpath.render(scene, tracer="nee_mis")
     assert np.isfinite(volpath.render(scene, tracer="null_scattering")).all()
+
+
+def test_camera_inside_a_scattering_medium_agrees():
+    """The split camera segment with MIS (nee_mis) against phase sampling alone."""
+    xml = S.scene(S.camera(res=16, spp=64, origin="0, 0, 2.5", medium="fog"),
+                  S.homogeneous("fog", "0.3, 0.5, 0.8", "0.9", g=0.4), S.medium_sphere("fog", radius=4),
+                  S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"))
+    scene = volpath.load_string(xml)
+    assert compare(scene, "multiple", "nee_mis") < Z_MAX

@@ -35,6 +35,11 @@ public:
     }
     // Uniform in [0, 1) with 32 bits of resolution.
     Real next_1d() { return next_u32() * 0x1p-32; }
+    // An independent stream derived from this one (for a second branch of a path).
+    Sampler split() {
+        const uint64_t a = next_u32(), b = next_u32();
+        return Sampler((a << 32) | b, 0x5eed, next_u32());
+    }
     Vec2 next_2d() {
         const Real a = next_1d();
         return {a, next_1d()};

@@ -139,8 +139,13 @@ void check_tracer_supports(const Scene &scene, Tracer tracer) {
     }
 }
 
-Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
-                  const TracerConfig &config) {
+namespace {
+
+// Which part of the camera ray's first medium segment a path estimates (see radiance()).
+enum class Branch { All, PassThrough, Collide };
+
+Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config,
+                       Branch branch) {
     const Features feat = features_of(config);
     Spectrum L(0.0), beta(1.0), r_u(1.0), r_l(1.0);
     const int channel = std::min(int(sampler.next_1d() * 3), 2);
@@ -176,7 +181,28 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
         if (medium >= 0) {
             const Medium &m = scene.media[medium];
             const auto *h = std::get_if<HomogeneousMedium>(&m);
-            if (!feat.scatter || (h && is_black(h->sigma_s))) {
+            Real forced = 0;  // probability of the collision forced on the split segment
+            if (branch != Branch::All && feat.scatter && !(h && is_black(h->sigma_s))) {
+                const Spectrum tau = majorant_optical_depth(m, ray, t_end);
+                if (branch == Branch::PassThrough) {
+                    // The branch always runs: weight by the probability of no collision.
+                    const Spectrum T_maj = exp(-tau);
+                    const Real pdf = T_maj[channel];
+                    if (!(pdf > 0)) return L;
+                    beta *= T_maj;
+                    r_u *= T_maj / pdf;
+                    if (h) r_l /= pdf; else r_l *= T_maj / pdf;
+                } else {
+                    forced = -std::expm1(-tau[channel]);
+                    if (!(forced > 0)) return L;
+                    beta *= forced;
+                }
+            }
+            const bool pass_through = branch == Branch::PassThrough;
+            branch = Branch::All;  // only the first segment is split
+            if (pass_through) {
+                // handled above: go on to the surface or the sky
+            } else if (!feat.scatter || (h && is_black(h->sigma_s))) {
                 // Nothing scatters: the transmittance is exact and needs no sampling.
                 beta *= exp(-(h->sigma_a + h->sigma_s) * (t_end - ray.t_min));
             } else {
@@ -246,7 +272,8 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
                         r_u *= T_seg * sigma_n / pdf;
                         r_l *= T_seg * sigma_maj / pdf;
                         return !is_black(beta);
-                    });
+                    },
+                    forced);
                 if (terminated) return L;
                 if (scattered) {
                     // Russian roulette on the channel-averaged throughput.
@@ -325,6 +352,28 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
             beta /= q;
         }
     }
+}
+
+}  // namespace
+
+// A camera ray that starts inside a scattering medium is split on its first segment into
+// two estimates that add up to the usual one: the path that crosses the segment without
+// a tentative collision (weighted by that probability, T_maj) and the path forced to
+// collide in it (weighted by 1 - T_maj). Plain free flight would pick one of the two at
+// random. Measured at equal time (docs/accuracy.md scenes, 128^2): 2.3x less variance on
+// the thin fog (e), the same on the sky, where shadow rays dominate the noise; splitting
+// only the unlikely collisions (P < 0.5) was worse than both.
+Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config) {
+    const Features feat = features_of(config);
+    bool split = medium >= 0 && feat.scatter;
+    if (split) {
+        const auto *h = std::get_if<HomogeneousMedium>(&scene.media[medium]);
+        split = !(h && is_black(h->sigma_s));
+    }
+    if (!split) return radiance_path(scene, ray, medium, sampler, config, Branch::All);
+    Sampler second = sampler.split();
+    return radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough) +
+           radiance_path(scene, ray, medium, second, config, Branch::Collide);
 }
 
 }  // namespace volpath
