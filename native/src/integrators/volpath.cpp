@@ -181,15 +181,18 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         if (medium >= 0) {
             const Medium &m = scene.media[medium];
             const auto *h = std::get_if<HomogeneousMedium>(&m);
-            Real forced = 0;  // probability of the collision forced on the split segment
-            if (branch != Branch::All && feat.scatter && !(h && is_black(h->sigma_s))) {
+            const bool scatters = feat.scatter && !(h && is_black(h->sigma_s));
+            // The camera's first segment, when split (radiance() splits only scattering
+            // media): PassThrough crosses it with weight T_maj, Collide must collide in it.
+            Real forced = 0;
+            const bool pass_through = branch == Branch::PassThrough;
+            if (branch != Branch::All) {
                 const Spectrum tau = majorant_optical_depth(m, ray, t_end);
-                if (branch == Branch::PassThrough) {
-                    // The branch always runs: weight by the probability of no collision.
+                if (pass_through) {
                     const Spectrum T_maj = exp(-tau);
                     const Real pdf = T_maj[channel];
                     if (!(pdf > 0)) return L;
-                    beta *= T_maj;
+                    beta *= T_maj;  // the branch always runs: weighted by the event's probability
                     r_u *= T_maj / pdf;
                     if (h) r_l /= pdf; else r_l *= T_maj / pdf;
                 } else {
@@ -197,15 +200,12 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                     if (!(forced > 0)) return L;
                     beta *= forced;
                 }
+                branch = Branch::All;
             }
-            const bool pass_through = branch == Branch::PassThrough;
-            branch = Branch::All;  // only the first segment is split
-            if (pass_through) {
-                // handled above: go on to the surface or the sky
-            } else if (!feat.scatter || (h && is_black(h->sigma_s))) {
+            if (!scatters) {
                 // Nothing scatters: the transmittance is exact and needs no sampling.
                 beta *= exp(-(h->sigma_a + h->sigma_s) * (t_end - ray.t_min));
-            } else {
+            } else if (!pass_through) {
                 bool scattered = false, terminated = false;
                 const Spectrum T_maj = sample_T_maj(
                     m, ray, t_end, channel, sampler,
