@@ -54,12 +54,6 @@ struct Eval {
         return p.rayleigh_fraction * r + (Spectrum(1.0) - p.rayleigh_fraction) * m;
     }
 };
-struct Pdf {
-    Real mu;
-    Spectrum operator()(const IsotropicPhase &) const { return Spectrum(kInv4Pi); }
-    Spectrum operator()(const HenyeyGreenstein &p) const { return Spectrum(hg_eval(p.g, mu)); }
-    Spectrum operator()(const RayleighMiePhase &p) const { return air_pdf(p, mu); }
-};
 struct Sample {
     const Vec3 &d_in;
     Vec2 u;
@@ -74,7 +68,10 @@ struct Sample {
 }  // namespace
 
 Spectrum phase_eval(const PhaseFunction &phase, Real mu) { return std::visit(Eval{mu}, phase); }
-Spectrum phase_pdf(const PhaseFunction &phase, Real mu) { return std::visit(Pdf{mu}, phase); }
+Spectrum phase_pdf(const PhaseFunction &phase, Real mu) {
+    if (const auto *air = std::get_if<RayleighMiePhase>(&phase)) return air_pdf(*air, mu);
+    return phase_eval(phase, mu);  // the other phase functions are sampled exactly
+}
 
 PhaseSample phase_sample(const PhaseFunction &phase, const Vec3 &d_in, Vec2 u, Real u_lobe, int channel) {
     const Real mu = std::visit(Sample{d_in, u, u_lobe, channel}, phase);
