@@ -122,8 +122,11 @@ def plot(name, curves, target, file):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=110)
-    for label, pts in curves.items():
-        ax.loglog([s for _, s, _ in pts], [e for _, _, e in pts], "o-", ms=3, label=label)
+    colours = plt.get_cmap("tab20")
+    for i, (label, pts) in enumerate(curves.items()):
+        # Twenty distinct colours, and dashes for Mitsuba, so no two curves look alike.
+        ax.loglog([s for _, s, _ in pts], [e for _, _, e in pts], "o--" if "Mitsuba" in label else "o-", ms=3,
+                  color=colours(i % 20), label=label)
     ax.axhline(target, color="grey", lw=0.8, ls="--", label="target error")
     ax.set_xlabel("seconds (2 threads)")
     ax.set_ylabel("RMSE against the reference")
