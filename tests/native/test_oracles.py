@@ -71,7 +71,7 @@ def test_white_furnace_heterogeneous_grid(tmp_path):
     from volpath.grids import write_vol
 
     write_vol(volpath_grid, density)
-    xml = S.scene(S.camera(res=8, fov=40, spp=32), f"""
+    xml = S.scene(S.camera(res=8, fov=40, spp=32), """
         <medium type="heterogeneous" id="m">
             <volume type="gridvolume" name="sigma_t"><string name="filename" value="d.vol"/>
                 <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>

@@ -71,7 +71,7 @@ def test_very_dense_scattering_is_bounded(sigma_t, tracer):
 def test_grid_density_range(tmp_path, density):
     rng = np.random.default_rng(1)
     write_vol(tmp_path / "g.vol", rng.uniform(0, density, (8, 8, 8)))
-    xml = S.scene(S.camera(res=6, fov=30, spp=8), f"""<medium type="heterogeneous" id="m">
+    xml = S.scene(S.camera(res=6, fov=30, spp=8), """<medium type="heterogeneous" id="m">
         <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
         <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>
         <float name="albedo" value="1"/></medium>""", S.medium_cube("m"), S.constant_env(), max_depth=64)

@@ -65,7 +65,6 @@ inline Vec3 abs(const Vec3 &a) { return {std::abs(a.x), std::abs(a.y), std::abs(
 inline Vec3 exp(const Vec3 &a) { return {std::exp(a.x), std::exp(a.y), std::exp(a.z)}; }
 inline Vec3 clamp_zero(const Vec3 &a) { return max(a, Vec3(0.0)); }
 inline Real max_component(const Vec3 &a) { return std::max(a.x, std::max(a.y, a.z)); }
-inline Real min_component(const Vec3 &a) { return std::min(a.x, std::min(a.y, a.z)); }
 inline Real average(const Vec3 &a) { return (a.x + a.y + a.z) * (1.0 / 3.0); }
 inline bool is_black(const Vec3 &a) { return a.x == 0 && a.y == 0 && a.z == 0; }
 inline bool is_finite(const Vec3 &a) {

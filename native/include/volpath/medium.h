@@ -24,7 +24,6 @@ struct VoxelGrid {
 
     bool empty() const { return data.empty(); }
     Spectrum lookup(const Vec3 &p) const;
-    Spectrum max_value() const;
 };
 
 // Local majorants: the grid's unit cube cut into res^3 cells, each holding the largest

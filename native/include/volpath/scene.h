@@ -51,7 +51,6 @@ struct Scene {
 
     Real light_select_pdf() const { return lights.empty() ? 0.0 : 1.0 / Real(lights.size()); }
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
-    bool has_heterogeneous_media() const;
     // Whether a ray can hit an emitter (area lights, lights at infinity); with only point
     // and directional lights, light arrives by next-event estimation alone.
     bool has_hittable_emitters() const { return lights.size() > point_and_directional; }

@@ -78,7 +78,6 @@ struct Distribution1D {
         }
         return i;
     }
-    Real discrete_pdf(size_t i) const { return cdf[i + 1] - cdf[i]; }
     // Continuous sample in [0, 1) with density func/integral.
     Real sample_continuous(Real u, Real *pdf, size_t *cell) const {
         Real du;

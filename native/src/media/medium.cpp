@@ -33,18 +33,6 @@ Spectrum VoxelGrid::lookup(const Vec3 &p) const {
     return out;
 }
 
-Spectrum VoxelGrid::max_value() const {
-    Spectrum m(0.0);
-    for (size_t i = 0; i < data.size(); i += channels) {
-        if (channels == 1) {
-            m = max(m, Spectrum(data[i]));
-        } else {
-            m = max(m, Spectrum(data[i], data[i + 1], data[i + 2]));
-        }
-    }
-    return m;
-}
-
 Real AtmosphereMedium::ozone_profile(Real h) const {
     if (h <= ozone_bottom || h >= ozone_top) return 0.0;
     return h < ozone_peak ? (h - ozone_bottom) / (ozone_peak - ozone_bottom)

@@ -66,12 +66,6 @@ void Scene::build() {
     built = true;
 }
 
-bool Scene::has_heterogeneous_media() const {
-    for (const Medium &m : media)
-        if (!is_homogeneous(m)) return true;
-    return false;
-}
-
 std::string Scene::describe() const {
     std::ostringstream s;
     s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, "
