@@ -8,7 +8,8 @@ from .errors import RenderCancelled
 from .scene import TRACERS
 
 
-def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01):
+def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
+           out=None):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``)
@@ -21,6 +22,8 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     progress   callable(fraction_done) called about 20 times a second from the calling
                thread; returning False cancels the render (raises RenderCancelled)
     max_depth  path segments, as Mitsuba counts them (default: the scene's)
+    out        optional float32 array (height, width, 3) to render into; each 16x16 tile
+               appears in it when finished, so a progress callback can display it
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
     Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
@@ -45,7 +48,7 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
     image, stats = _core.render(scene.native, spp, int(seed), threads, TRACERS.index(tracer), max_depth,
-                                scene.rr_depth, scene.max_null_collisions, progress)
+                                scene.rr_depth, scene.max_null_collisions, progress, out)
     stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth,
                  threads=threads or os.cpu_count(), auto=auto)
     scene.last_render = stats

@@ -472,13 +472,17 @@ class _Builder:
         if far <= near:
             raise p.error("'far_clip' must exceed 'near_clip'")
         p.raw("shutter_open"), p.raw("shutter_close"), p.raw("principal_point_offset_x"), p.raw("principal_point_offset_y")
+        # Blender's lens shift: fractions of the larger film side, the view moving right / up
+        # (camera +x points left, hence the sign).
+        span = 2 * max(tx, ty)
+        shift_x, shift_y = -p.float("shift_x", 0.0) * span, p.float("shift_y", 0.0) * span
         p.check()
         medium_index = self.medium(medium) if medium is not None else -1
         if medium is None:
             for index, center, top in self.atmospheres:
                 if np.linalg.norm(to_world[:3, 3] - center) < top:
                     medium_index = index
-        self.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian)
+        self.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian, shift_x, shift_y)
         self.summary["camera"] = {"width": width, "height": height, "fov": fov, "fov_axis": axis,
                                   "origin": to_world[:3, 3].tolist(), "medium": medium_index}
         return spp
@@ -697,6 +701,13 @@ class _Builder:
             return grid, np.eye(4)
         if vp.type != "gridvolume":
             raise vp.error("unknown volume (expected 'gridvolume' or 'constvolume')")
+        if vp.has("data"):  # dictionaries only: a (z, y, x, channels) array in memory
+            data = np.asarray(vp.raw("data"), dtype=np.float32)
+            if data.ndim != 4 or data.shape[3] not in (1, 3) or data.size == 0 or not np.all(np.isfinite(data)):
+                raise vp.error("'data' must be a finite (z, y, x, 1 or 3) array")
+            to_world = vp.transform()
+            vp.check()
+            return np.ascontiguousarray(data), to_world
         path = self.path(vp, "filename")
         filter_type = vp.str("filter_type", "trilinear", ("trilinear", "nearest"))
         if filter_type != "trilinear":
@@ -776,8 +787,10 @@ class _Builder:
                 positions, triangles, normals = load_mesh(path)
                 if p.bool("face_normals", False):
                     normals = None
+            elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
+                positions, triangles, normals = self.mesh_arrays(p)
             else:
-                raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply)")
+                raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh)")
             positions = _transform_points(to_world, positions)
             if normals is not None:
                 normals = _transform_normals(to_world, normals)
@@ -794,6 +807,21 @@ class _Builder:
         if radiance is not None:
             self.summary["emitters"].append({"type": "area", "radiance": radiance.tolist(), "loc": p.loc})
         p.check()
+
+    def mesh_arrays(self, p):
+        positions = np.asarray(p.raw("positions"), dtype=np.float64)
+        triangles = np.asarray(p.raw("indices"), dtype=np.int64)
+        normals = p.raw("normals")
+        if positions.ndim != 2 or positions.shape[1] != 3 or not np.all(np.isfinite(positions)):
+            raise p.error("'positions' must be a finite (n, 3) array")
+        if triangles.ndim != 2 or triangles.shape[1] != 3 or (triangles.size and (
+                triangles.min() < 0 or triangles.max() >= len(positions))):
+            raise p.error("'indices' must be an (m, 3) array of vertex indices")
+        if normals is not None:
+            normals = np.asarray(normals, dtype=np.float64)
+            if normals.shape != positions.shape or not np.all(np.isfinite(normals)):
+                raise p.error("'normals' must be a finite array shaped like 'positions'")
+        return positions, triangles.astype(np.uint32), normals
 
     def _default_bsdf(self):
         key = ("default", False)
@@ -886,7 +914,7 @@ _KINDS = {
     "film": {"hdrfilm"},
     "sampler": {"independent", "stratified", "multijitter", "ldsampler", "orthogonal"},
     "rfilter": {"box", "gaussian", "tent"},
-    "shape": {"sphere", "rectangle", "cube", "obj", "ply", "disk", "cylinder", "serialized"},
+    "shape": {"sphere", "rectangle", "cube", "obj", "ply", "mesh", "disk", "cylinder", "serialized"},
     "bsdf": {"null", "diffuse", "dielectric", "thindielectric", "roughplastic", "plastic", "principled",
              "twosided", "conductor", "roughconductor", "roughdielectric"},
     "emitter": {"point", "directional", "sun", "constant", "envmap", "area", "spot"},

@@ -64,7 +64,7 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 }
 
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
-                    int rr_depth, int max_null_collisions, py::object progress_cb) {
+                    int rr_depth, int max_null_collisions, py::object progress_cb, py::object out) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -75,7 +75,17 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     settings.threads = threads;
     settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions};
 
-    py::array_t<float> image({scene.camera.height, scene.camera.width, 3});
+    // Rendering into a caller's array lets a progress callback show finished tiles.
+    py::array_t<float> image;
+    if (out.is_none()) {
+        image = py::array_t<float>({scene.camera.height, scene.camera.width, 3});
+    } else {
+        image = py::array_t<float>::ensure(out);
+        if (!image || image.ndim() != 3 || image.shape(0) != scene.camera.height ||
+            image.shape(1) != scene.camera.width || image.shape(2) != 3 || !image.writeable() ||
+            !(image.flags() & py::array::c_style) || image.ptr() != out.ptr())
+            throw std::invalid_argument("out must be a writeable C-contiguous float32 array of shape (height, width, 3)");
+    }
     float *pixels = image.mutable_data();
     std::fill(pixels, pixels + image.size(), 0.0f);
     RenderProgress progress;
@@ -256,16 +266,20 @@ PYBIND11_MODULE(_core, m) {
              py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"))
         .def("set_camera",
              [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,
-                double near_clip, double far_clip, int medium, bool gaussian) {
+                double near_clip, double far_clip, int medium, bool gaussian, double shift_x, double shift_y) {
                  if (width < 1 || height < 1) throw std::invalid_argument("film size must be positive");
                  Camera &c = s.camera;
                  c.to_world = transform(to_world);
                  c.tan_half_x = tan_x, c.tan_half_y = tan_y;
+                 c.shift_x = shift_x, c.shift_y = shift_y;
                  c.width = width, c.height = height;
                  c.near_clip = near_clip, c.far_clip = far_clip;
                  c.medium = medium;
                  c.gaussian_filter = gaussian;
-             })
+             },
+             py::arg("to_world"), py::arg("tan_x"), py::arg("tan_y"), py::arg("width"), py::arg("height"),
+             py::arg("near_clip"), py::arg("far_clip"), py::arg("medium"), py::arg("gaussian"),
+             py::arg("shift_x") = 0.0, py::arg("shift_y") = 0.0)
         .def("build", [](Scene &s) {
             py::gil_scoped_release release;
             s.build();
@@ -277,7 +291,7 @@ PYBIND11_MODULE(_core, m) {
 
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
-          py::arg("progress") = py::none());
+          py::arg("progress") = py::none(), py::arg("out") = py::none());
 
     // Sampler access for the statistical tests (chi-square against the pdfs).
     m.def("phase_sample", [](double g, const DoubleArray &u) {

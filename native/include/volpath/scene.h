@@ -26,6 +26,8 @@ struct ShapeInfo {
 struct Camera {
     Transform to_world;
     Real tan_half_x = 1, tan_half_y = 1;
+    // Lens shift: the image window's centre on the z = 1 plane, in camera coordinates.
+    Real shift_x = 0, shift_y = 0;
     int width = 64, height = 64;
     Real near_clip = 1e-2, far_clip = 1e4;
     int medium = -1;

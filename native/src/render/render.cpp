@@ -25,8 +25,8 @@ Vec2 filter_offset(const Camera &camera, Sampler &sampler) {
 }
 
 Ray camera_ray(const Camera &c, Real px, Real py) {
-    const Vec3 local = normalize(Vec3((1.0 - 2.0 * px / c.width) * c.tan_half_x,
-                                      (1.0 - 2.0 * py / c.height) * c.tan_half_y, 1.0));
+    const Vec3 local = normalize(Vec3((1.0 - 2.0 * px / c.width) * c.tan_half_x + c.shift_x,
+                                      (1.0 - 2.0 * py / c.height) * c.tan_half_y + c.shift_y, 1.0));
     const Vec3 d = normalize(c.to_world.vector(local));
     return Ray{c.to_world.point(Vec3(0.0)), d, c.near_clip / local.z, c.far_clip / local.z};
 }

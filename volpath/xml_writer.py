@@ -1,0 +1,107 @@
+"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY and grids as .vol.
+
+The inverse of xml_reader.py for what the Blender exporter produces: ``write_scene(d,
+directory)`` writes ``scene.xml`` next to ``meshes/`` and ``volumes/`` so that
+``volpath.load_file`` gives the same native scene as ``volpath.load_dict(d)`` (floats are
+written with ``repr``, which round-trips exactly; meshes and grids are float32 either way).
+"""
+
+import os
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from .grids import write_vol
+from .meshes import write_ply
+from .scene import _kind
+
+
+def write_scene(d, directory, filename="scene.xml"):
+    """Write the scene dictionary ``d`` into ``directory``; returns the XML file's path."""
+    os.makedirs(directory, exist_ok=True)
+    writer = _Writer(directory)
+    lines = ['<scene version="3.0.0">']
+    for key, value in d.items():
+        if key == "type" or key.startswith("__"):
+            continue
+        lines += writer.entry(key, value, 1, top=True)
+    lines.append("</scene>")
+    path = os.path.join(directory, filename)
+    tmp = path + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+def _num(v):
+    return repr(float(v))
+
+
+class _Writer:
+    def __init__(self, directory):
+        self.directory = directory
+        self.files = set()
+
+    def asset(self, folder, name, ext):
+        os.makedirs(os.path.join(self.directory, folder), exist_ok=True)
+        stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "asset"
+        rel, i = f"{folder}/{stem}.{ext}", 1
+        while rel in self.files:
+            rel, i = f"{folder}/{stem}_{i}.{ext}", i + 1
+        self.files.add(rel)
+        return rel
+
+    def entry(self, key, value, depth, top=False):
+        pad = "    " * depth
+        name = f" name={quoteattr(key)}"
+        if isinstance(value, dict):
+            if value.get("type") == "ref":
+                return [f'{pad}<ref{name if not top else ""} id={quoteattr(value["id"])}/>']
+            if value.get("type") in ("rgb", "spectrum"):
+                v = np.broadcast_to(np.asarray(value["value"], dtype=np.float64), (3,))
+                return [f'{pad}<rgb{name} value="{", ".join(map(_num, v))}"/>']
+            return self.obj(key, value, depth, top)
+        if isinstance(value, (bool, np.bool_)):
+            return [f'{pad}<boolean{name} value="{str(bool(value)).lower()}"/>']
+        if isinstance(value, (int, np.integer)):
+            return [f'{pad}<integer{name} value="{int(value)}"/>']
+        if isinstance(value, (float, np.floating)):
+            return [f'{pad}<float{name} value="{_num(value)}"/>']
+        if isinstance(value, str):
+            return [f"{pad}<string{name} value={quoteattr(value)}/>"]
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.shape == (3,):
+            return [f'{pad}<vector{name} value="{", ".join(map(_num, arr))}"/>']
+        if arr.shape == (4, 4):
+            return [f"{pad}<transform{name}>",
+                    f'{pad}    <matrix value="{" ".join(map(_num, arr.ravel()))}"/>',
+                    f"{pad}</transform>"]
+        raise TypeError(f"cannot write '{key}' ({type(value).__name__}) as XML")
+
+    def obj(self, key, d, depth, top):
+        pad = "    " * depth
+        kind = _kind(d)
+        if kind is None:
+            raise TypeError(f"'{key}': unknown plugin type {d.get('type')!r}")
+        d = dict(d)
+        if d["type"] == "mesh":  # arrays become a PLY file
+            rel = self.asset("meshes", key, "ply")
+            write_ply(os.path.join(self.directory, rel), d.pop("positions"), d.pop("indices"), d.pop("normals", None))
+            d["type"], d["filename"] = "ply", rel
+        elif d["type"] == "gridvolume" and "data" in d:
+            rel = self.asset("volumes", key, "vol")
+            write_vol(os.path.join(self.directory, rel), d.pop("data"))
+            d["filename"] = rel
+        attrs = f' type={quoteattr(d["type"])}'
+        if top:
+            attrs += f" id={quoteattr(key)}"
+        elif kind in ("medium", "volume", "texture"):  # the parameter they fill
+            attrs += f" name={quoteattr(key)}"
+        body = []
+        for k, v in d.items():
+            if k != "type" and not k.startswith("__"):
+                body += self.entry(k, v, depth + 1)
+        if not body:
+            return [f"{pad}<{kind}{attrs}/>"]
+        return [f"{pad}<{kind}{attrs}>", *body, f"{pad}</{kind}>"]
