@@ -32,13 +32,7 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     max_depth = scene.max_depth if max_depth is None else int(max_depth)
     if max_depth == 0 or max_depth < -1:
         raise ValueError("max_depth must be -1 (unlimited) or at least 1")
-    auto = None
-    if tracer == "auto":
-        chosen, reasons, bound = choose_tracer(scene, tolerance, max_depth)
-        auto = {"tracer": chosen, "reasons": reasons, "bound": bound, "tolerance": tolerance}
-        tracer = chosen
-    if tracer not in TRACERS:
-        raise ValueError(f"unknown tracer '{tracer}' (expected auto or one of: {', '.join(TRACERS)})")
+    tracer, auto = resolve_tracer(scene, tracer, tolerance, max_depth)
     spp = scene.spp if spp is None else int(spp)
     if spp < 1:
         raise ValueError(f"spp must be at least 1, got {spp}")
@@ -55,3 +49,14 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     if stats["cancelled"]:
         raise RenderCancelled(image)
     return image
+
+
+def resolve_tracer(scene, tracer="auto", tolerance=0.01, max_depth=-1):
+    """(tracer, auto) for a render: "auto" becomes the cheapest sufficient tracer, with
+    ``auto`` = its reasons and error bound (None when the tracer was given)."""
+    if tracer != "auto":
+        if tracer not in TRACERS:
+            raise ValueError(f"unknown tracer '{tracer}' (expected auto or one of: {', '.join(TRACERS)})")
+        return tracer, None
+    chosen, reasons, bound = choose_tracer(scene, tolerance, max_depth)
+    return chosen, {"tracer": chosen, "reasons": reasons, "bound": bound, "tolerance": tolerance}

@@ -1,0 +1,52 @@
+"""The active camera: Mitsuba's perspective sensor with Blender's sensor fit and shift."""
+
+import math
+
+import numpy as np
+
+from . import convert
+
+# Mitsuba's camera looks along +z with +x to the image's left; Blender's looks along -z
+# with +x to the right: flip both.
+_BLENDER_TO_MITSUBA_CAMERA = np.diag([-1.0, 1.0, -1.0, 1.0])
+
+
+def resolution(render):
+    scale = render.resolution_percentage / 100.0
+    return max(1, int(render.resolution_x * scale)), max(1, int(render.resolution_y * scale))
+
+
+def to_world(obj):
+    return convert.matrix(obj.matrix_world) @ _BLENDER_TO_MITSUBA_CAMERA
+
+
+def export(scene, report):
+    """The sensor dictionary (film and sampler included) for scene.camera."""
+    obj = scene.camera
+    if obj is None:
+        raise report.error("the scene has no active camera")
+    cam = obj.data
+    if cam.type != "PERSP":
+        report.warn(f"camera '{obj.name}': {cam.type.lower()} projection is not supported, rendering as perspective")
+    width, height = resolution(scene.render)
+    aspect_x, aspect_y = scene.render.pixel_aspect_x, scene.render.pixel_aspect_y
+    if abs(aspect_x - aspect_y) > 1e-6:
+        report.warn("non-square pixel aspect is not supported; pixels are square")
+    fit = cam.sensor_fit
+    if fit == "AUTO":
+        fov, axis = 2 * math.atan(cam.sensor_width / (2 * cam.lens)), "larger"
+    elif fit == "HORIZONTAL":
+        fov, axis = 2 * math.atan(cam.sensor_width / (2 * cam.lens)), "x"
+    else:
+        fov, axis = 2 * math.atan(cam.sensor_height / (2 * cam.lens)), "y"
+    if cam.dof.use_dof:
+        report.warn(f"camera '{obj.name}': depth of field is not supported (pinhole camera)")
+    settings = scene.volpath
+    sensor = {"type": "perspective", "fov": math.degrees(fov), "fov_axis": axis,
+              "near_clip": float(cam.clip_start), "far_clip": float(cam.clip_end),
+              "to_world": to_world(obj),
+              "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
+              "sampler": {"type": "independent", "sample_count": int(settings.spp)}}
+    if cam.shift_x or cam.shift_y:
+        sensor["shift_x"], sensor["shift_y"] = float(cam.shift_x), float(cam.shift_y)
+    return sensor

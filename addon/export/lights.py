@@ -1,0 +1,66 @@
+"""Blender lights to emitters, in Blender's radiometry (shared/README.md §5): a point light
+of power P has intensity P/(4 pi) W/sr, a sun's strength is its irradiance in W/m², an
+area light of power P and area A has radiance P/(pi A)."""
+
+import math
+
+import numpy as np
+
+from . import convert
+
+_DISK_SEGMENTS = 64
+
+
+def sun_direction(obj):
+    """Where the sun's light travels, in scene coordinates (the lamp points along -Z)."""
+    return convert.direction(obj.matrix_world.to_3x3() @ _down())
+
+
+def _down():
+    from mathutils import Vector
+
+    return Vector((0.0, 0.0, -1.0))
+
+
+def export(obj, matrix_world, report):
+    """(key, dict) pairs for one light instance; unsupported lights are reported, not dropped silently."""
+    light = obj.data
+    color = np.array(light.color, dtype=np.float64) * light.energy
+    name = obj.name
+    if light.type == "POINT":
+        if light.shadow_soft_size > 0:
+            report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")
+        return {"type": "point", "position": convert.matrix(matrix_world)[:3, 3],
+                "intensity": convert.rgb(color / (4 * math.pi))}
+    if light.type == "SUN":
+        return {"type": "sun", "direction": sun_direction(obj), "angular_radius": max(light.angle / 2, 1e-4),
+                "irradiance": convert.rgb(color)}
+    if light.type == "AREA":
+        return _area(light, matrix_world, color, report, name)
+    report.warn(f"light '{name}': {light.type.lower()} lights are not supported (skipped)")
+    return None
+
+
+def _area(light, matrix_world, power, report, name):
+    sx = light.size
+    sy = light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size
+    if light.shape in ("SQUARE", "RECTANGLE"):
+        positions = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]], np.float32)
+        indices = np.array([[0, 2, 1], [0, 3, 2]], np.uint32)  # facing -z, where the lamp shines
+    else:  # DISK, ELLIPSE: a fan whose area is the polygon's, so the power stays exact
+        t = 2 * math.pi * np.arange(_DISK_SEGMENTS) / _DISK_SEGMENTS
+        ring = np.stack([0.5 * np.cos(t), 0.5 * np.sin(t), np.zeros_like(t)], axis=1)
+        positions = np.vstack([[0, 0, 0], ring]).astype(np.float32)
+        i = np.arange(_DISK_SEGMENTS)
+        indices = np.stack([np.zeros_like(i), (i + 1) % _DISK_SEGMENTS + 1, i + 1], axis=1).astype(np.uint32)
+    scale = np.diag([sx, sy, 1.0, 1.0])
+    to_world = convert.matrix(matrix_world) @ scale
+    world = positions.astype(np.float64) @ to_world[:3, :3].T
+    area = 0.5 * np.linalg.norm(np.cross(world[indices[:, 1]] - world[indices[:, 0]],
+                                         world[indices[:, 2]] - world[indices[:, 0]]), axis=1).sum()
+    if area <= 0:
+        report.warn(f"light '{name}': zero area (skipped)")
+        return None
+    return {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world,
+            "bsdf": {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))},
+            "emitter": {"type": "area", "radiance": convert.rgb(power / (math.pi * area))}}

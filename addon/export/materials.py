@@ -1,0 +1,122 @@
+"""Shader node trees to BSDFs, area emitters and media.
+
+What maps (shared/README.md §5 gives Blender's radiometry):
+  Principled BSDF   -> principled (base colour, metallic, roughness) or, with transmission,
+                       dielectric (IOR); emission colour x strength -> area emitter
+  Diffuse / Glass / Emission -> diffuse / dielectric / area emitter on a black diffuse
+  Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - absorption colour)
+  Volume Scatter    -> sigma_s = density colour;  Volume Absorption -> sigma_a = density (1 - colour)
+Everything else (textures plugged into inputs, other nodes, volume emission) is reported as
+a warning and replaced by the input's default value, never ignored silently.
+"""
+
+import numpy as np
+
+from . import convert
+
+DEFAULT_SURFACE = {"type": "diffuse", "reflectance": convert.rgb((0.8, 0.8, 0.8))}
+
+
+class _Inputs:
+    """A node's unlinked input values, reporting inputs driven by links."""
+
+    def __init__(self, node, owner, report):
+        self.node, self.owner, self.report = node, owner, report
+
+    def __call__(self, name):
+        socket = self.node.inputs[name]
+        if socket.is_linked:
+            self.report.warn(f"{self.owner}: '{name}' of '{self.node.name}' is driven by nodes; "
+                             f"using its value {_show(socket.default_value)}")
+        v = socket.default_value
+        return np.array(v[:3], dtype=np.float64) if hasattr(v, "__len__") else float(v)
+
+
+def _show(v):
+    return f"({', '.join(f'{c:.3g}' for c in v[:3])})" if hasattr(v, "__len__") else f"{v:.3g}"
+
+
+def _output(material):
+    tree = material.node_tree
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    active = [n for n in outputs if n.is_active_output] or outputs
+    return active[0] if active else None
+
+
+def _linked(output, socket):
+    s = output.inputs[socket]
+    return s.links[0].from_node if s.is_linked else None
+
+
+def export(material, report):
+    """(bsdf dict, emitted radiance rgb or None, medium dict or None) for a material slot."""
+    if material is None:
+        return DEFAULT_SURFACE, None, None
+    owner = f"material '{material.name}'"
+    output = _output(material)
+    if output is None:
+        return {"type": "diffuse", "reflectance": convert.rgb(material.diffuse_color[:3])}, None, None
+    surface = _linked(output, "Surface")
+    volume = _linked(output, "Volume")
+    medium = _volume(volume, owner, report) if volume is not None else None
+    if surface is None:
+        bsdf, radiance = ({"type": "null"} if medium is not None else {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}), None
+    else:
+        bsdf, radiance = _surface(surface, owner, report)
+    return bsdf, radiance, medium
+
+
+def _surface(node, owner, report):
+    get = _Inputs(node, owner, report)
+    kind = node.bl_idname
+    if kind == "ShaderNodeBsdfPrincipled":
+        emission = get("Emission Color") * get("Emission Strength")
+        radiance = emission if np.any(emission > 0) else None
+        for name in ("Coat Weight", "Sheen Weight", "Subsurface Weight"):
+            if get(name) > 0:
+                report.warn(f"{owner}: '{name}' is not supported (ignored)")
+        if get("Transmission Weight") >= 0.5:
+            return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, radiance
+        return {"type": "principled", "base_color": convert.rgb(np.clip(get("Base Color"), 0, 1)),
+                "metallic": float(np.clip(get("Metallic"), 0, 1)), "roughness": float(np.clip(get("Roughness"), 0, 1)),
+                "eta": max(get("IOR"), 1.0001)}, radiance
+    if kind == "ShaderNodeBsdfDiffuse":
+        return {"type": "diffuse", "reflectance": convert.rgb(np.clip(get("Color"), 0, 1))}, None
+    if kind == "ShaderNodeBsdfGlass":
+        return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, None
+    if kind == "ShaderNodeEmission":
+        return {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}, get("Color") * get("Strength")
+    report.warn(f"{owner}: surface node '{node.name}' ({node.bl_label}) is not supported; using a grey diffuse")
+    return DEFAULT_SURFACE, None
+
+
+def _volume(node, owner, report):
+    """A medium description: sigma_a, sigma_s (per scene unit, before any density grid), g,
+    and the name of the density attribute (volume objects)."""
+    get = _Inputs(node, owner, report)
+    kind = node.bl_idname
+    if kind == "ShaderNodeVolumePrincipled":
+        density, color = get("Density"), np.clip(get("Color"), 0, 1)
+        sigma_s = density * color
+        sigma_a = density * (1 - color) * np.clip(1 - get("Absorption Color"), 0, 1)
+        if get("Emission Strength") > 0 or get("Blackbody Intensity") > 0:
+            report.warn(f"{owner}: volume emission and blackbody are not supported yet (ignored)")
+        return {"sigma_a": sigma_a, "sigma_s": sigma_s, "g": get("Anisotropy"),
+                "attribute": node.inputs["Density Attribute"].default_value or "density"}
+    if kind == "ShaderNodeVolumeScatter":
+        return {"sigma_a": np.zeros(3), "sigma_s": get("Density") * np.clip(get("Color"), 0, 1),
+                "g": get("Anisotropy"), "attribute": "density"}
+    if kind == "ShaderNodeVolumeAbsorption":
+        return {"sigma_a": get("Density") * (1 - np.clip(get("Color"), 0, 1)), "sigma_s": np.zeros(3),
+                "g": 0.0, "attribute": "density"}
+    report.warn(f"{owner}: volume node '{node.name}' ({node.bl_label}) is not supported (no medium)")
+    return None
+
+
+def homogeneous(medium):
+    """The homogeneous medium of a mesh's volume material (coefficients per Blender unit,
+    which is the scene unit)."""
+    return {"type": "homogeneous", "sigma_a": convert.rgb(medium["sigma_a"]), "sigma_s": convert.rgb(medium["sigma_s"]),
+            "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}

@@ -1,0 +1,62 @@
+"""Volpath's settings, stored in the .blend as ``scene.volpath``."""
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+
+TRACER_ITEMS = [
+    ("auto", "Auto", "The cheapest tracer whose omissions stay below the tolerance (reasons in the report)"),
+    ("absorption", "Absorption", "Emission and absorption only (tracer 1)"),
+    ("single", "Single Scattering", "One scattering event in media (tracer 2)"),
+    ("multiple", "Multiple Scattering", "Any number of scattering events, Russian roulette (tracer 3)"),
+    ("nee_mis", "NEE + MIS", "Next-event estimation and multiple importance sampling, surfaces (tracer 4)"),
+    ("null_scattering", "Null Scattering", "Heterogeneous and chromatic media by null scattering (tracer 5)"),
+]
+
+
+class VolpathSettings(bpy.types.PropertyGroup):
+    # Sampling
+    spp: IntProperty(name="Samples", description="Samples per pixel", default=16, min=1, soft_max=4096)
+    seed: IntProperty(name="Seed", description="The same seed gives the same image on any number of threads",
+                      default=0, min=0)
+    threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, soft_max=256)
+    tracer: EnumProperty(name="Tracer", items=TRACER_ITEMS, default="auto")
+    tolerance: FloatProperty(name="Tolerance", description="Relative error the automatic tracer may leave out",
+                             default=0.01, min=0.0, max=1.0)
+    # Light paths
+    max_depth: IntProperty(name="Max Depth", description="Path segments as Mitsuba counts them (-1: unlimited)",
+                           default=-1, min=-1, soft_max=1024)
+    rr_depth: IntProperty(name="Russian Roulette Depth", description="Depth from which paths may be ended at random",
+                          default=5, min=1, soft_max=64)
+    # Volumes
+    majorant_resolution: IntProperty(name="Majorant Grid", description="Cells per axis of the local majorant grid "
+                                     "(1: one global majorant)", default=8, min=1, max=20)
+    max_null_collisions: IntProperty(name="Max Null Collisions", description="Safety cap on null collisions per segment",
+                                     default=1000, min=1, soft_max=100000)
+    # Atmosphere (a world with a Sky Texture)
+    use_atmosphere: BoolProperty(name="Atmosphere", description="Render a Sky Texture world as the physical atmosphere",
+                                 default=True)
+    atmosphere_preset: EnumProperty(name="Preset", default="bruneton", items=[
+        ("bruneton", "Bruneton 2017", "Measured Rayleigh, Mie and ozone coefficients (Bruneton 2017, Hillaire 2020)"),
+        ("report", "Course Report", "The original report's physics: lambda^-4 Rayleigh, no ozone, R = 6378 km")])
+    atmosphere_pieces: IntProperty(name="Majorant Pieces", description="Pieces of each ray's per-altitude majorant",
+                                   default=4, min=1, max=16)
+    sun_irradiance: FloatProperty(name="Sky Sun Irradiance", description="W/m² of the Sky Texture's own sun "
+                                  "(used only without a Sun lamp), times its Sun Intensity", default=10.0, min=0.0)
+    # Animation to video (the sunrise pipeline)
+    video_directory: StringProperty(name="Output Folder", subtype="DIR_PATH", default="//volpath_video/")
+    video_fps: IntProperty(name="FPS", default=24, min=1, max=240)
+    video_step: IntProperty(name="Frame Step", default=1, min=1)
+    video_workers: IntProperty(name="Workers", description="Frames rendered at once (0: one per core)", default=0, min=0)
+    video_resume: BoolProperty(name="Resume", description="Keep frames already rendered", default=True)
+    video_scheduler: StringProperty(name="Dask Scheduler", description="Address of a Dask distributed scheduler "
+                                    "(empty: render on this machine)", default="")
+
+
+def register():
+    bpy.utils.register_class(VolpathSettings)
+    bpy.types.Scene.volpath = PointerProperty(type=VolpathSettings)
+
+
+def unregister():
+    del bpy.types.Scene.volpath
+    bpy.utils.unregister_class(VolpathSettings)

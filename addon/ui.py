@@ -1,0 +1,120 @@
+"""Panels of the Volpath engine (render, world) and Blender's own panels that apply to it."""
+
+import bpy
+
+
+class _VolpathPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    COMPAT_ENGINES = {"VOLPATH"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class VOLPATH_PT_sampling(_VolpathPanel, bpy.types.Panel):
+    bl_label = "Sampling"
+    bl_context = "render"
+
+    def draw(self, context):
+        s = context.scene.volpath
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(s, "spp")
+        layout.prop(s, "seed")
+        layout.prop(s, "threads")
+        layout.prop(s, "tracer")
+        row = layout.row()
+        row.active = s.tracer == "auto"
+        row.prop(s, "tolerance")
+
+
+class VOLPATH_PT_light_paths(_VolpathPanel, bpy.types.Panel):
+    bl_label = "Light Paths"
+    bl_context = "render"
+
+    def draw(self, context):
+        s = context.scene.volpath
+        self.layout.use_property_split = True
+        self.layout.prop(s, "max_depth")
+        self.layout.prop(s, "rr_depth")
+
+
+class VOLPATH_PT_volumes(_VolpathPanel, bpy.types.Panel):
+    bl_label = "Volumes"
+    bl_context = "render"
+
+    def draw(self, context):
+        s = context.scene.volpath
+        self.layout.use_property_split = True
+        self.layout.prop(s, "majorant_resolution")
+        self.layout.prop(s, "max_null_collisions")
+
+
+class VOLPATH_PT_video(_VolpathPanel, bpy.types.Panel):
+    bl_label = "Animation to Video"
+    bl_context = "render"
+
+    def draw(self, context):
+        s = context.scene.volpath
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(s, "video_directory")
+        layout.prop(s, "video_step")
+        layout.prop(s, "video_fps")
+        layout.prop(s, "video_workers")
+        layout.prop(s, "video_resume")
+        layout.prop(s, "video_scheduler")
+        layout.operator("volpath.export_scene", icon="EXPORT")
+
+
+class VOLPATH_PT_atmosphere(_VolpathPanel, bpy.types.Panel):
+    bl_label = "Atmosphere"
+    bl_context = "world"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.volpath, "use_atmosphere", text="")
+
+    def draw(self, context):
+        s = context.scene.volpath
+        layout = self.layout
+        layout.use_property_split = True
+        layout.active = s.use_atmosphere
+        layout.label(text="A Sky Texture world renders as a planet's atmosphere", icon="INFO")
+        layout.prop(s, "atmosphere_preset")
+        layout.prop(s, "atmosphere_pieces")
+        layout.prop(s, "sun_irradiance")
+
+
+CLASSES = (VOLPATH_PT_sampling, VOLPATH_PT_light_paths, VOLPATH_PT_volumes, VOLPATH_PT_video, VOLPATH_PT_atmosphere)
+
+# Blender's panels for what the exporter reads: camera, lights, materials, world, volumes.
+_BLENDER_PANELS = ("DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_dof", "DATA_PT_context_light",
+                   "DATA_PT_light", "DATA_PT_EEVEE_light", "EEVEE_MATERIAL_PT_context_material",
+                   "EEVEE_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_volume", "EEVEE_WORLD_PT_surface",
+                   "DATA_PT_volume_file", "DATA_PT_volume_grids", "DATA_PT_volume_render")
+
+
+def _blender_panels():
+    for name in _BLENDER_PANELS:
+        panel = getattr(bpy.types, name, None)
+        if panel is not None and hasattr(panel, "COMPAT_ENGINES"):
+            yield panel
+    for panel in bpy.types.Panel.__subclasses__():  # the panels every engine shares
+        if "BLENDER_RENDER" in getattr(panel, "COMPAT_ENGINES", ()):
+            yield panel
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    for panel in _blender_panels():
+        panel.COMPAT_ENGINES.add("VOLPATH")
+
+
+def unregister():
+    for panel in _blender_panels():
+        panel.COMPAT_ENGINES.discard("VOLPATH")
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

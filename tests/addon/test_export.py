@@ -1,0 +1,178 @@
+"""The exporter: what a Blender scene becomes, and that both ways of rendering it agree."""
+
+import math
+
+import numpy as np
+import pytest
+
+import volpath
+from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene, volume_material
+from addon.export import ExportError, animation, export_scene, write_directory
+from addon.export.convert import BLENDER_TO_SCENE
+
+
+def test_round_trip_camera_lights_meshes(blank, tmp_path):
+    small_scene(blank)
+    plane = bpy.data.objects["Plane"]
+    plane.location = (1.0, 2.0, 0.5)
+    plane.rotation_euler = (0, 0, math.pi / 2)
+    ex = export_scene(depsgraph())
+    d = ex.scene
+    meshes = {k: v for k, v in d.items() if isinstance(v, dict) and v.get("type") == "mesh"}
+    # Plane, Sphere, Cube and the area light's quad
+    assert set(meshes) == {"Plane", "Sphere", "Cube", "Area"}
+    assert len(meshes["Sphere"]["indices"]) == 960 and "normals" in meshes["Sphere"]  # smooth
+    assert "normals" not in meshes["Plane"]  # flat
+    assert meshes["Cube"]["bsdf"]["type"] == "null" and meshes["Cube"]["interior"]["type"] == "homogeneous"
+    # A known vertex: the plane's corner (5, 5, 0) after rotation by 90 degrees about z and the
+    # move, then Blender's z-up -> the scene's y-up.
+    m = meshes["Plane"]
+    p = m["to_world"] @ np.append(m["positions"][np.argmax(m["positions"].sum(axis=1))], 1.0)
+    assert np.allclose(p[:3], [1 - 5, 0.5, -(2 + 5)], atol=1e-5)
+    cam = d["camera"]
+    obj = bpy.data.objects["Camera"]
+    assert np.allclose(cam["to_world"][:3, 3], BLENDER_TO_SCENE[:3, :3] @ np.array(obj.location))
+    # The camera looks along its local +z (Mitsuba) = Blender's -z.
+    forward = BLENDER_TO_SCENE[:3, :3] @ (np.array(obj.matrix_world.to_3x3()) @ [0, 0, -1])
+    assert np.allclose(cam["to_world"][:3, 2], forward)
+    assert cam["fov"] == pytest.approx(math.degrees(2 * math.atan(36 / 100)))
+    assert cam["film"]["width"] == 48 and cam["film"]["height"] == 32
+    sun = d["Sun"]
+    assert sun["type"] == "sun" and sun["irradiance"]["value"] == pytest.approx([3, 3, 3])
+    area = d["Area"]
+    size = bpy.data.objects["Area"].data.size
+    assert size > 0
+    # P / (pi A): 200 W on a square of side `size`
+    assert area["emitter"]["radiance"]["value"] == pytest.approx([200 / (math.pi * size ** 2)] * 3, rel=1e-6)
+    assert d["world"]["radiance"]["value"] == pytest.approx([0.1, 0.2, 0.4])
+    # The written directory loads and describes the same scene.
+    scene = volpath.load_file(write_directory(ex, tmp_path / "scene"))
+    assert scene.summary["camera"]["width"] == 48
+    assert sorted(s["type"] for s in scene.summary["shapes"]) == ["ply"] * 4
+
+
+def test_f12_equals_rendering_the_exported_directory(blank, tmp_path):
+    small_scene(blank)
+    blank.volpath.seed = 7
+    blank.volpath.tracer = "nee_mis"
+    f12 = render_f12(blank, tmp_path / "f12.exr")
+    path = write_directory(export_scene(depsgraph()), tmp_path / "scene")
+    cli = volpath.render(volpath.load_file(path), seed=7, tracer="nee_mis", threads=1)
+    assert f12.shape == cli.shape == (32, 48, 3)
+    assert np.array_equal(f12, cli)  # same seed, same bits, whatever the thread count
+    assert cli.mean() > 0.05
+
+
+def test_instances_share_arrays_and_modifiers_apply(blank):
+    bpy.ops.mesh.primitive_cube_add(size=2)
+    bpy.ops.object.duplicate_move_linked(TRANSFORM_OT_translate={"value": (3, 0, 0)})
+    bpy.ops.mesh.primitive_cube_add(size=2, location=(0, 4, 0))
+    bpy.context.object.modifiers.new("sub", "SUBSURF").levels = 1
+    add_camera(blank)
+    d = export_scene(depsgraph()).scene
+    a, b, smooth = d["Cube"], d["Cube.001"], d["Cube.002"]
+    assert a["positions"] is b["positions"]  # linked duplicates share one array
+    assert np.allclose(b["to_world"][:3, 3] - a["to_world"][:3, 3], [3, 0, 0])
+    assert len(a["indices"]) == 12 and len(smooth["indices"]) == 6 * 4 * 2  # subdivided once
+
+
+def test_materials_map_to_bsdfs_and_emitters(blank):
+    add_camera(blank)
+    specs = {"glass": dict(Transmission_Weight=1.0, IOR=1.33),
+             "metal": dict(Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.2),
+             "lamp": dict(Emission_Color=(1, 0.5, 0.25, 1), Emission_Strength=4.0)}
+    for i, (name, inputs) in enumerate(specs.items()):
+        bpy.ops.mesh.primitive_cube_add(location=(3 * i, 0, 0))
+        bpy.context.object.name = name
+        bpy.context.object.data.materials.append(material(name, **inputs))
+    d = export_scene(depsgraph()).scene
+    assert d["glass"]["bsdf"] == {"type": "dielectric", "int_ior": pytest.approx(1.33), "ext_ior": 1.0}
+    assert d["metal"]["bsdf"]["metallic"] == 1.0 and d["metal"]["bsdf"]["roughness"] == pytest.approx(0.2)
+    assert d["lamp"]["emitter"]["radiance"]["value"] == pytest.approx([4, 2, 1])
+
+
+def test_unsupported_features_warn_in_the_render_report(blank, tmp_path, capfd):
+    small_scene(blank)
+    m = bpy.data.materials["red"]
+    noise = m.node_tree.nodes.new("ShaderNodeTexNoise")
+    m.node_tree.links.new(noise.outputs["Color"], m.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.ops.object.light_add(type="SPOT", location=(0, 0, 3))
+    warnings = export_scene(depsgraph()).warnings
+    assert any("spot lights are not supported" in w for w in warnings)
+    assert any("'Base Color'" in w and "driven by nodes" in w for w in warnings)
+    render_f12(blank, tmp_path / "f12.exr")
+    out = capfd.readouterr()
+    assert "Warning: Volpath: light 'Spot': spot lights are not supported" in out.out + out.err
+
+
+def test_no_camera_is_an_error_in_the_report(blank, capfd):
+    bpy.ops.mesh.primitive_cube_add()
+    with pytest.raises(ExportError, match="no active camera"):
+        export_scene(depsgraph())
+
+
+def test_camera_fit_and_shift(blank):
+    cam = add_camera(blank, location=(0, 0, 0), rotation=(math.pi / 2, 0, 0))
+    cam.data.sensor_fit = "VERTICAL"
+    cam.data.sensor_height = 24
+    cam.data.lens = 35
+    cam.data.shift_x = 0.1
+    c = export_scene(depsgraph()).scene["camera"]
+    assert c["fov_axis"] == "y" and c["fov"] == pytest.approx(math.degrees(2 * math.atan(12 / 35)))
+    assert c["shift_x"] == pytest.approx(0.1)
+
+
+def test_keyframed_sun_directions_match_frame_set(blank):
+    add_camera(blank)
+    bpy.ops.object.light_add(type="SUN")
+    sun = bpy.context.object
+    sun.rotation_euler = (math.radians(95), 0, math.radians(10))
+    sun.keyframe_insert("rotation_euler", frame=1)
+    sun.rotation_euler = (math.radians(60), 0, math.radians(30))
+    sun.keyframe_insert("rotation_euler", frame=9)
+    # A constraint counts too: the camera tracks an animated empty.
+    bpy.ops.object.empty_add(location=(0, 0, 0))
+    target = bpy.context.object
+    target.keyframe_insert("location", frame=1)
+    target.location = (5, 5, 2)
+    target.keyframe_insert("location", frame=9)
+    track = blank.camera.constraints.new("TRACK_TO")
+    track.target = target
+    frames = list(range(1, 10))
+    anim = animation(blank, frames)
+    assert [a["frame"] for a in anim] == frames
+    directions = []
+    for a in anim:
+        blank.frame_set(a["frame"])
+        expected = np.array(sun.matrix_world.to_3x3()) @ [0, 0, -1]
+        assert np.allclose(a["suns"]["Sun"], BLENDER_TO_SCENE[:3, :3] @ expected, atol=1e-6)
+        cam = np.array(blank.camera.matrix_world)
+        assert np.allclose(np.array(a["camera"])[:3, 3], BLENDER_TO_SCENE[:3, :3] @ cam[:3, 3], atol=1e-6)
+        directions.append(a["suns"]["Sun"])
+    assert not np.allclose(directions[0], directions[-1])  # it really moved
+    cams = [np.array(a["camera"])[:3, 2] for a in anim]
+    assert not np.allclose(cams[0], cams[-1])  # the constraint turned the camera
+
+
+def test_sky_texture_becomes_the_atmosphere(blank):
+    add_camera(blank, location=(0, 0, 2), rotation=(math.radians(90), 0, 0))
+    world = set_background(blank, (0, 0, 0))
+    tree = world.node_tree
+    sky = tree.nodes.new("ShaderNodeTexSky")
+    sky.air_density, sky.aerosol_density, sky.altitude = 2.0, 0.5, 0.0
+    tree.links.new(sky.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    bpy.ops.object.light_add(type="SUN", rotation=(math.radians(30), 0, 0))  # 60 degrees up
+    d = export_scene(depsgraph()).scene
+    air = d["air"]
+    from volpath.scene import ATMOSPHERE_PRESETS
+
+    preset = ATMOSPHERE_PRESETS["bruneton"]
+    assert air["type"] == "atmosphere"
+    assert air["rayleigh_scattering"]["value"] == pytest.approx(2 * np.array(preset["rayleigh_scattering"]))
+    assert air["mie_scattering"] == pytest.approx(0.5 * preset["mie_scattering"])
+    assert d["camera"]["far_clip"] >= 1e9
+    scene = volpath.load_dict(d)
+    img = volpath.render(scene, spp=2, seed=1)
+    assert np.all(np.isfinite(img))
+    # Daylight sky: blue above the horizon.
+    assert img[:8].mean(axis=(0, 1))[2] > img[:8].mean(axis=(0, 1))[0]

@@ -1,0 +1,67 @@
+"""Volume objects: VDB files written by Blender's openvdb become heterogeneous media."""
+
+import numpy as np
+import pytest
+
+import volpath
+from blender_scenes import add_camera, add_volume, bpy, depsgraph, render_f12, set_background, volume_material, write_vdb
+from addon.export import ExportError, export_scene, write_directory
+from addon.export.convert import BLENDER_TO_SCENE
+
+
+def _cloud():
+    x, y, z = np.meshgrid(*(np.arange(12),) * 3, indexing="ij")
+    return np.clip(1 - np.sqrt((x - 5.5) ** 2 + (y - 5.5) ** 2 + (z - 5.5) ** 2) / 6, 0, None).astype(np.float32)
+
+
+def test_vdb_values_and_placement(blank, tmp_path):
+    density = _cloud()
+    add_volume(write_vdb(tmp_path / "cloud.vdb", density, voxel_size=0.1, origin_index=(3, 0, 0)),
+               volume_material("smoke", density=4.0, color=(0.9, 0.8, 0.7)), location=(1, 2, 3))
+    add_camera(blank)
+    d = export_scene(depsgraph()).scene
+    cloud = d["cloud"]
+    medium = cloud["interior"]
+    grid = medium["density"]["data"]
+    # Active voxels only: the zero border of the sphere is inactive in the VDB.
+    active = density > 0
+    xs, ys, zs = (np.flatnonzero(active.any(axis=tuple(a for a in range(3) if a != k))) for k in range(3))
+    expected = density[xs[0]:xs[-1] + 1, ys[0]:ys[-1] + 1, zs[0]:zs[-1] + 1]
+    assert np.array_equal(grid[..., 0], expected.transpose(2, 1, 0))
+    assert medium["scale"] == pytest.approx(4.0)
+    assert medium["albedo"]["value"] == pytest.approx([0.9, 0.8, 0.7])
+    # The first active voxel's centre, i * voxel_size in the object, lands at (0.5/res) of the box.
+    to_world = medium["density"]["to_world"]
+    res = np.array(grid.shape[2::-1])
+    first = to_world @ np.append(0.5 / res, 1)
+    blender = np.array([1, 2, 3]) + 0.1 * (np.array([3, 0, 0]) + [xs[0], ys[0], zs[0]])
+    assert np.allclose(first[:3], BLENDER_TO_SCENE[:3, :3] @ blender, atol=1e-6)
+
+
+def test_vdb_scene_f12_equals_directory_render(blank, tmp_path):
+    add_volume(write_vdb(tmp_path / "cloud.vdb", _cloud() * 5), volume_material("smoke", density=3.0, color=(0.95,) * 3))
+    add_camera(blank, location=(0.6, -3, 0.6), rotation=(np.pi / 2, 0, 0))
+    set_background(blank, (1, 1, 1))
+    blank.volpath.tracer = "null_scattering"
+    f12 = render_f12(blank, tmp_path / "f12.exr")
+    path = write_directory(export_scene(depsgraph()), tmp_path / "scene")
+    assert (tmp_path / "scene" / "volumes").is_dir()
+    again = volpath.render(volpath.load_file(path), seed=0, tracer="null_scattering")
+    assert np.array_equal(f12, again)
+    # The cloud is visible: the centre is darker than the corners' open sky, which is 1.
+    assert again[16, 24].mean() < 0.9 and again[0, 0].mean() == pytest.approx(1.0)
+
+
+def test_missing_vdb_is_a_clear_error(blank, tmp_path, capfd):
+    path = write_vdb(tmp_path / "gone.vdb", _cloud())
+    volume = add_volume(path, volume_material("smoke"))
+    add_camera(blank)
+    path.unlink()
+    volume.data.grids.unload()
+    with pytest.raises(ExportError, match=r"volume 'gone': VDB file '.*gone\.vdb' not found"):
+        export_scene(depsgraph())
+    render_result = tmp_path / "f12.exr"
+    with pytest.raises(RuntimeError):
+        render_f12(blank, render_result)  # Blender refuses to save a failed render ...
+    out = capfd.readouterr()
+    assert "Volpath: volume 'gone': VDB file" in out.out + out.err  # ... and the report says why
