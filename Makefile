@@ -14,7 +14,7 @@ SPP ?= 16
 RES ?= 256
 JOBS ?= 2
 
-.PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize wheel
+.PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize wheel extension
 
 all: test
 
@@ -40,7 +40,7 @@ $(VENV)/.native: $(VENV)/.requirements $(NATIVE_SOURCES) $(shell find volpath -n
 setup: debian $(VENV)/.native
 
 test: setup
-	$(VENV)/bin/pytest -n $(JOBS) -q tests
+	$(VENV)/bin/pytest -n $(JOBS) --dist loadgroup -q tests
 
 $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 	$(PIP) install -q -r requirements-bench.txt
@@ -56,8 +56,19 @@ bench: setup $(VENV)/.bench
 wheel: setup
 	rm -rf dist && mkdir -p dist
 	$(PIP) wheel -q --no-build-isolation --no-deps -Cbuild-dir=build/wheel -w dist/raw .
-	$(PY) -m auditwheel repair -q -w dist dist/raw/volpath-*.whl
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m auditwheel repair -w dist dist/raw/volpath-*.whl
 	rm -rf dist/raw && ls dist
+
+# The Blender extension zip (dist/volpath-*.zip), built and validated by Blender's own
+# extension tool; it bundles the native wheel and the pure-Python wheels it needs.
+BLENDER_EXT = $$($(PY) -c "import importlib.util, os; print(os.path.join(importlib.util.find_spec('bpy').submodule_search_locations[0], '5.0/scripts/addons_core/bl_pkg/cli/blender_ext.py'))")
+extension: wheel
+	rm -rf wheels && mkdir -p wheels
+	cp dist/volpath-*.whl wheels/
+	$(PIP) download -q --only-binary :all: --no-deps -d wheels $$(grep -E '^(OpenEXR|tqdm|imageio-ffmpeg)==' requirements.txt)
+	$(PY) $(BLENDER_EXT) validate .
+	$(PY) $(BLENDER_EXT) build --source-dir . --output-dir dist --split-platforms
+	@ls -la dist/*.zip
 
 # The accuracy study: docs/accuracy.md and its plots (references cached in bench/cache/).
 accuracy: setup $(VENV)/.bench
@@ -86,4 +97,4 @@ sanitize: setup
 	  FUZZ_EXAMPLES=200 ../$(SAN_VENV)/bin/pytest -q -p no:cacheprovider native stability
 
 clean:
-	rm -rf build out dist $(VENV) $(SAN_VENV)
+	rm -rf build out dist wheels $(VENV) $(SAN_VENV)
