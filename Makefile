@@ -51,6 +51,7 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 
 bench: setup $(VENV)/.bench
 	$(PY) bench/compare_mitsuba.py --out bench/RESULTS.md
+	$(PY) bench/export_speed.py --append bench/RESULTS.md
 
 # The self-contained manylinux wheel that the Blender extension bundles (dist/).
 wheel: setup
