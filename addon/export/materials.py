@@ -1,14 +1,17 @@
 """Shader node trees to BSDFs, area emitters and media.
 
 What maps (shared/README.md §5 gives Blender's radiometry):
-  Principled BSDF   -> principled (base colour, metallic, roughness) or, with transmission,
-                       dielectric (IOR); emission colour x strength -> area emitter
+  Principled BSDF   -> principled (base colour, metallic, roughness; IOR and Specular IOR
+                       Level give the coat's F0), diffuse when F0 is 0, or, with
+                       transmission, dielectric (IOR); emission colour x strength -> area emitter
   Diffuse / Glass / Emission -> diffuse / dielectric / area emitter on a black diffuse
   Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - absorption colour)
   Volume Scatter    -> sigma_s = density colour;  Volume Absorption -> sigma_a = density (1 - colour)
 Everything else (textures plugged into inputs, other nodes, volume emission) is reported as
 a warning and replaced by the input's default value, never ignored silently.
 """
+
+import math
 
 import numpy as np
 
@@ -79,9 +82,15 @@ def _surface(node, owner, report):
                 report.warn(f"{owner}: '{name}' is not supported (ignored)")
         if get("Transmission Weight") >= 0.5:
             return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, radiance
-        return {"type": "principled", "base_color": convert.rgb(np.clip(get("Base Color"), 0, 1)),
-                "metallic": float(np.clip(get("Metallic"), 0, 1)), "roughness": float(np.clip(get("Roughness"), 0, 1)),
-                "eta": max(get("IOR"), 1.0001)}, radiance
+        base, metallic = np.clip(get("Base Color"), 0, 1), float(np.clip(get("Metallic"), 0, 1))
+        # Specular IOR Level scales the coat's normal-incidence reflectance F0 (0.5: as the IOR says).
+        ior = max(get("IOR"), 1.0)
+        f0 = ((ior - 1) / (ior + 1)) ** 2 * 2 * max(get("Specular IOR Level"), 0.0)
+        if f0 < 1e-4 and metallic == 0:
+            return {"type": "diffuse", "reflectance": convert.rgb(base)}, radiance
+        eta = (1 + math.sqrt(min(f0, 0.9))) / (1 - math.sqrt(min(f0, 0.9)))
+        return {"type": "principled", "base_color": convert.rgb(base), "metallic": metallic,
+                "roughness": float(np.clip(get("Roughness"), 0, 1)), "eta": max(eta, 1.0001)}, radiance
     if kind == "ShaderNodeBsdfDiffuse":
         return {"type": "diffuse", "reflectance": convert.rgb(np.clip(get("Color"), 0, 1))}, None
     if kind == "ShaderNodeBsdfGlass":

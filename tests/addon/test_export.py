@@ -80,7 +80,9 @@ def test_materials_map_to_bsdfs_and_emitters(blank):
     add_camera(blank)
     specs = {"glass": dict(Transmission_Weight=1.0, IOR=1.33),
              "metal": dict(Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.2),
-             "lamp": dict(Emission_Color=(1, 0.5, 0.25, 1), Emission_Strength=4.0)}
+             "lamp": dict(Emission_Color=(1, 0.5, 0.25, 1), Emission_Strength=4.0),
+             "plastic": dict(Base_Color=(0.2, 0.3, 0.4, 1)),
+             "matte": dict(Base_Color=(0.2, 0.3, 0.4, 1), Specular_IOR_Level=0.0)}
     for i, (name, inputs) in enumerate(specs.items()):
         bpy.ops.mesh.primitive_cube_add(location=(3 * i, 0, 0))
         bpy.context.object.name = name
@@ -89,6 +91,8 @@ def test_materials_map_to_bsdfs_and_emitters(blank):
     assert d["glass"]["bsdf"] == {"type": "dielectric", "int_ior": pytest.approx(1.33), "ext_ior": 1.0}
     assert d["metal"]["bsdf"]["metallic"] == 1.0 and d["metal"]["bsdf"]["roughness"] == pytest.approx(0.2)
     assert d["lamp"]["emitter"]["radiance"]["value"] == pytest.approx([4, 2, 1])
+    assert d["plastic"]["bsdf"]["eta"] == pytest.approx(1.5)  # IOR 1.5 at the default level 0.5
+    assert d["matte"]["bsdf"] == {"type": "diffuse", "reflectance": {"type": "rgb", "value": pytest.approx([0.2, 0.3, 0.4])}}
 
 
 def test_unsupported_features_warn_in_the_render_report(blank, tmp_path, capfd):

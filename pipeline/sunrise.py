@@ -1,0 +1,152 @@
+"""Render a Blender animation (by default the sunrise) to EXR frames and an H.264 video.
+
+    python -m pipeline.sunrise [--blend scenes/sunrise/sunrise.blend] [options]
+    blender -b scenes/sunrise/sunrise.blend --python pipeline/sunrise.py -- [options]
+
+Exit status: 0 when every frame rendered, 1 when some failed (the video holds the rest),
+2 for bad options or a scene that cannot be exported.
+"""
+
+import argparse
+import os
+import re
+import sys
+import time
+
+if __name__ == "__main__" and not __package__:  # run as a file by `blender --python`
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from pipeline.sunrise import main
+
+    sys.exit(main())
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DEFAULT_BLEND = os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend")
+
+
+def _frames(text):
+    m = re.fullmatch(r"\s*(-?\d+)\s*(?:[-:]\s*(-?\d+)\s*)?", text)
+    if not m:
+        raise argparse.ArgumentTypeError(f"'{text}': expected a frame or a range such as 1-72")
+    first = int(m.group(1))
+    last = int(m.group(2)) if m.group(2) is not None else first
+    if last < first:
+        raise argparse.ArgumentTypeError(f"'{text}': the range ends before it starts")
+    return first, last
+
+
+def _resolution(text):
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if not m or not (1 <= int(m.group(1)) <= 16384 and 1 <= int(m.group(2)) <= 16384):
+        raise argparse.ArgumentTypeError(f"'{text}': expected WIDTHxHEIGHT, e.g. 320x180")
+    return int(m.group(1)), int(m.group(2))
+
+
+def _exposure(text):
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}': expected a number of stops or 'auto'") from None
+
+
+def parser():
+    p = argparse.ArgumentParser(prog="python -m pipeline.sunrise", description=__doc__.split("\n\n")[0])
+    p.add_argument("--blend", help=f"the .blend to render (default: the open file inside Blender, else {DEFAULT_BLEND})")
+    p.add_argument("--frames", type=_frames, help="frame or range, e.g. 1-72 (default: the scene's range)")
+    p.add_argument("--step", type=int, help="render every STEP-th frame (default: the scene's frame step)")
+    p.add_argument("--res", type=_resolution, help="WIDTHxHEIGHT (default: the scene's output size)")
+    p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's Volpath samples)")
+    p.add_argument("--tracer", help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)")
+    p.add_argument("--out", default=os.path.join("out", "sunrise"), help="output directory (default: out/sunrise)")
+    p.add_argument("--fps", type=int, default=24, help="video frame rate (default: 24)")
+    p.add_argument("--exposure", type=_exposure, default="auto",
+                   help="stops for the PNGs and video, or 'auto' (middle grey, smoothed over frames; the default)")
+    p.add_argument("--workers", type=int, default=0, help="local worker processes (default: one per core)")
+    p.add_argument("--threads", type=int, default=0, help="threads per frame (default: cores / workers; 1 on Dask)")
+    p.add_argument("--scheduler", default="", help="Dask distributed scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--resume", action="store_true", help="keep frames whose EXR exists and reads back valid")
+    return p
+
+
+def _user_args(argv):
+    """Inside Blender the script's options follow `--`."""
+    if argv is not None:
+        return argv
+    return sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+
+
+def main(argv=None):
+    args = parser().parse_args(_user_args(argv))
+    import bpy
+
+    from . import sibling
+    from .run import Options
+
+    if not hasattr(bpy.types.Scene, "volpath"):  # plain Python, or Blender without the extension
+        sibling("addon").register()
+    if args.blend:
+        if not os.path.isfile(args.blend):
+            print(f"error: {args.blend}: no such .blend file", file=sys.stderr)
+            return 2
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.blend))
+    elif not bpy.data.filepath:
+        if not os.path.isfile(DEFAULT_BLEND):
+            print(f"error: {DEFAULT_BLEND} does not exist: build it with `make sunrise` "
+                  "(scenes/sunrise/build.py)", file=sys.stderr)
+            return 2
+        bpy.ops.wm.open_mainfile(filepath=DEFAULT_BLEND)
+    scene = bpy.context.scene
+    try:
+        frames = settings_to_frames(scene, args.frames, args.step)
+        options = Options(spp=args.spp or scene.volpath.spp, tracer=args.tracer or scene.volpath.tracer,
+                          workers=args.workers, threads=args.threads, scheduler=args.scheduler,
+                          resume=args.resume, fps=args.fps, exposure=args.exposure,
+                          fail_frames=[int(f) for f in os.environ.get("VOLPATH_FAIL_FRAMES", "").split(",") if f])
+        options.check()
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if args.res:
+        scene.render.resolution_x, scene.render.resolution_y = args.res
+        scene.render.resolution_percentage = 100
+    return render_animation(scene, frames, args.out, options)
+
+
+def settings_to_frames(scene, frames=None, step=None):
+    first, last = frames or (scene.frame_start, scene.frame_end)
+    step = scene.frame_step if step is None else step
+    if step < 1:
+        raise ValueError(f"the frame step must be at least 1, got {step}")
+    return list(range(first, last + 1, step))
+
+
+def render_animation(scene, frames, out, options, progress=None, cancel=None, log=print):
+    """Export, render, make the video; returns the exit status (the add-on's operator
+    runs the same steps, the rendering in a background thread)."""
+    from . import sibling
+    from .export import export_animation
+    from .run import Run
+
+    start = time.monotonic()
+    animation_dir = os.path.join(out, "scene")
+    try:
+        warnings = export_animation(scene, frames, animation_dir)
+    except sibling("addon.export").ExportError as e:
+        log(f"error: {e}")
+        return 2
+    for w in warnings:
+        log(f"warning: {w}")
+    run = Run(animation_dir, out, frames, options, progress=progress, cancel=cancel)
+    run.render()
+    summary = run.make_video()
+    failed = run.failed()
+    log(f"{len(frames) - len(failed)}/{len(frames)} frames in {time.monotonic() - start:.0f} s; "
+        f"video: {summary.get('video')}; summary: {run.summary_path}")
+    for f in failed:
+        log(f"frame {f} failed: {run.status[f]['error']}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

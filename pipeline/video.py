@@ -1,0 +1,101 @@
+"""From linear EXR frames to pictures: exposure, a filmic curve, sRGB, PNG, a contact
+sheet, and H.264 through ffmpeg."""
+
+import os
+import shutil
+import struct
+import subprocess
+import zlib
+
+import numpy as np
+
+
+def tonemap(image, exposure=0.0):
+    """Linear radiance -> 8-bit sRGB: scale by 2^exposure, the ACES filmic fit (Narkowicz
+    2015), the sRGB transfer curve."""
+    x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0 ** exposure, 0.0)
+    film = np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
+    srgb = np.where(film <= 0.0031308, 12.92 * film, 1.055 * film ** (1 / 2.4) - 0.055)
+    return np.round(srgb * 255).astype(np.uint8)
+
+
+def auto_exposure(images, frames, window=12):
+    """Stops per frame that bring a robust brightness of each frame (the mean luminance with
+    the brightest 1 % of pixels, the sun's disc, clipped) to 0.25, averaged in log over the
+    frames within +-``window`` so the picture brightens smoothly as the sun rises."""
+    logs = []
+    for img in images:
+        lum = img @ np.array([0.2126, 0.7152, 0.0722])
+        logs.append(np.log2(max(np.minimum(lum, np.percentile(lum, 99)).mean(), 1e-8)))
+    logs, frames = np.array(logs), np.asarray(frames)
+    smooth = np.array([logs[np.abs(frames - f) <= window].mean() for f in frames])
+    return np.clip(np.log2(0.25) - smooth, -10.0, 12.0)
+
+
+def write_png(path, rgb):
+    """An 8-bit RGB PNG (no dependency beyond zlib), written atomically."""
+    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
+    height, width, _ = rgb.shape
+    raw = np.concatenate([np.zeros((height, 1), np.uint8), rgb.reshape(height, -1)], axis=1).tobytes()
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    tmp = f"{path}.tmp"
+    with open(tmp, "wb") as f:
+        f.write(png)
+    os.replace(tmp, path)
+
+
+def contact_sheet(images, columns=6):
+    """Tone-mapped frames side by side, in rows of ``columns``."""
+    if not images:
+        raise ValueError("no frames for a contact sheet")
+    h, w, _ = images[0].shape
+    rows = (len(images) + columns - 1) // columns
+    cols = min(columns, len(images))
+    sheet = np.zeros((rows * h, cols * w, 3), np.uint8)
+    for i, img in enumerate(images):
+        r, c = divmod(i, columns)
+        sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = img
+    return sheet
+
+
+def ffmpeg():
+    """Debian's ffmpeg if installed, else the binary in the imageio-ffmpeg wheel."""
+    found = shutil.which("ffmpeg")
+    if found:
+        return found
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        raise RuntimeError("no ffmpeg: install Debian's ffmpeg or `pip install imageio-ffmpeg`") from None
+    return imageio_ffmpeg.get_ffmpeg_exe()
+
+
+def encode(png_pattern, output, fps=24, crf=18):
+    """PNGs named by a printf pattern numbered from 0 -> H.264 yuv420p MP4 (atomic)."""
+    tmp = output + ".tmp.mp4"
+    cmd = [ffmpeg(), "-y", "-loglevel", "error", "-framerate", str(fps), "-i", png_pattern,
+           "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", str(crf),
+           # yuv420p needs even sizes
+           "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-movflags", "+faststart", tmp]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise RuntimeError(f"ffmpeg failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
+    os.replace(tmp, output)
+    return output
+
+
+def count_frames(path):
+    """Frames in a video, counted by decoding it with ffmpeg (as ffprobe -count_frames)."""
+    r = subprocess.run([ffmpeg(), "-nostdin", "-i", path, "-map", "0:v:0", "-f", "null", "-"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"ffmpeg could not read {path}: {r.stderr.strip()[-500:]}")
+    counts = [line for line in r.stderr.replace("\r", "\n").splitlines() if line.startswith("frame=")]
+    return int(counts[-1].split("=")[1].split()[0])

@@ -1,0 +1,126 @@
+"""Frames of an exported animation: one scene plus, per frame, the sun directions and the
+camera (what Blender evaluated at that frame).
+
+An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
+``animation.json``::
+
+    {"suns": {"<scene key>": "<Blender object>"},
+     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4}, ...]}
+
+``render_frame`` is what a worker runs (a local process or a Dask worker): it needs only
+this package, never Blender. The animation arrives as a directory path or, for workers on
+other machines, as the bytes of a zip of that directory.
+"""
+
+import copy
+import hashlib
+import io
+import json
+import os
+import tempfile
+import time
+import zipfile
+
+import numpy as np
+
+from .errors import SceneError
+
+ANIMATION_FILE = "animation.json"
+SCENE_FILE = "scene.xml"
+
+_cache = {}  # per worker process: animation key -> (scene dictionary, base directory)
+
+
+def read_animation(directory):
+    """The animation.json of an animation directory, checked."""
+    path = os.path.join(directory, ANIMATION_FILE)
+    try:
+        with open(path, encoding="utf-8") as f:
+            animation = json.load(f)
+    except FileNotFoundError:
+        raise SceneError(f"{path}: not found (export the animation first)") from None
+    except json.JSONDecodeError as e:
+        raise SceneError(f"{path}:{e.lineno}: malformed JSON ({e.msg})") from None
+    if not isinstance(animation.get("frames"), list) or not isinstance(animation.get("suns"), dict):
+        raise SceneError(f"{path}: expected 'suns' and 'frames' entries")
+    return animation
+
+
+def pack(directory):
+    """The animation directory as zip bytes, for workers without a shared file system."""
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as z:
+        for base, _, files in os.walk(directory):
+            for name in sorted(files):
+                full = os.path.join(base, name)
+                z.write(full, os.path.relpath(full, directory))
+    return buffer.getvalue()
+
+
+def _load(source):
+    """(scene dictionary, base directory, animation) for a directory or packed bytes."""
+    from .xml_reader import read_xml
+
+    if isinstance(source, (bytes, bytearray)):
+        key = hashlib.sha256(source).hexdigest()
+        if key not in _cache:
+            directory = tempfile.mkdtemp(prefix=f"volpath-anim-{key[:12]}-")
+            with zipfile.ZipFile(io.BytesIO(source)) as z:
+                z.extractall(directory)
+            _cache[key] = _read(directory, read_xml)
+        return _cache[key]
+    directory = os.path.abspath(os.fspath(source))
+    path = os.path.join(directory, SCENE_FILE)
+    key = (path, os.path.getmtime(path) if os.path.exists(path) else None)
+    if key not in _cache:
+        _cache[key] = _read(directory, read_xml)
+    return _cache[key]
+
+
+def _read(directory, read_xml):
+    path = os.path.join(directory, SCENE_FILE)
+    if not os.path.exists(path):
+        raise SceneError(f"{path}: not found")
+    with open(path, encoding="utf-8") as f:
+        d = read_xml(f.read(), path)
+    return d, directory, read_animation(directory)
+
+
+def frame_dictionary(d, animation, entry):
+    """The scene dictionary at one frame: sun directions and camera from ``entry``."""
+    d = copy.copy(d)  # shallow: only the entries replaced below are copied
+    for key, obj_name in animation["suns"].items():
+        if key not in d:
+            raise SceneError(f"animation: sun '{key}' is not in the scene")
+        if obj_name in entry["suns"]:
+            d[key] = dict(d[key], direction=np.asarray(entry["suns"][obj_name], dtype=np.float64))
+    if entry.get("camera") is not None:
+        d["camera"] = dict(d["camera"], to_world=np.asarray(entry["camera"], dtype=np.float64))
+    return d
+
+
+def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fail=False):
+    """Render one frame; returns (image, metadata). The seed defaults to the frame number,
+    so a frame is the same bits wherever and however often it is rendered."""
+    from . import __version__
+    from .render import render
+    from .scene import load_dict
+
+    if fail:  # the pipeline's tests make a frame fail on purpose (VOLPATH_FAIL_FRAMES)
+        raise RuntimeError(f"frame {frame}: failure requested by VOLPATH_FAIL_FRAMES")
+    d, directory, animation = _load(source)
+    entries = [e for e in animation["frames"] if e["frame"] == frame]
+    if not entries:
+        raise SceneError(f"frame {frame} is not in the exported animation")
+    entry = entries[0]
+    start = time.perf_counter()
+    scene = load_dict(frame_dictionary(d, animation, entry), base_dir=directory, source=f"frame {frame}")
+    image = render(scene, spp=spp, seed=frame if seed is None else seed, threads=threads, tracer=tracer)
+    stats = scene.last_render
+    sun = next(iter(entry["suns"].values()), None)
+    metadata = {"frame": int(frame), "spp": int(stats["spp"]), "tracer": stats["tracer"], "seed": int(stats["seed"]),
+                "seconds": float(time.perf_counter() - start), "render_seconds": float(stats["seconds"]),
+                "nonfinite_samples": int(stats["nonfinite_samples"]), "volpath_version": __version__}
+    if sun is not None:
+        metadata["sun_direction"] = np.asarray(sun, dtype=np.float64)
+    return image, metadata
