@@ -11,7 +11,8 @@ PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo py
             $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
 SPP ?= 16
-RES ?= 256
+RES ?= 320x180
+FRAMES ?= 1-72
 JOBS ?= 2
 
 .PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize wheel extension
@@ -75,10 +76,15 @@ extension: wheel
 accuracy: setup $(VENV)/.bench
 	$(PY) bench/accuracy/run.py
 
-# Until the sunrise pipeline lands, renders the bundled test scene to out/.
-sunrise: setup
-	mkdir -p out
-	$(PY) -m volpath render scenes/test/fog_box.xml -o out/sunrise_placeholder.exr --spp $(SPP) -D res=$(RES)
+# The default sunrise: the scene is built by its script, then the pipeline renders
+# FRAMES at RES and SPP to out/sunrise/ (frames/*.exr, sunrise.mp4, contact_sheet.png).
+SUNRISE_BLEND := scenes/sunrise/sunrise.blend
+$(SUNRISE_BLEND): scenes/sunrise/build.py $(VENV)/.native
+	$(PY) scenes/sunrise/build.py $@
+
+sunrise: setup $(SUNRISE_BLEND)
+	$(PY) -m pipeline.sunrise --blend $(SUNRISE_BLEND) --frames $(FRAMES) --spp $(SPP) --res $(RES) --out out/sunrise
+	@echo "video: out/sunrise/sunrise.mp4"
 
 # Many more hostile inputs than `make test` runs.
 fuzz: setup

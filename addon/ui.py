@@ -66,6 +66,8 @@ class VOLPATH_PT_video(_VolpathPanel, bpy.types.Panel):
         layout.prop(s, "video_workers")
         layout.prop(s, "video_resume")
         layout.prop(s, "video_scheduler")
+        layout.operator("volpath.render_video", icon="RENDER_ANIMATION")
+        layout.operator("volpath.open_output", icon="FILE_FOLDER")
         layout.operator("volpath.export_scene", icon="EXPORT")
 
 

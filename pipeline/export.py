@@ -7,6 +7,7 @@ import os
 from volpath.frames import ANIMATION_FILE
 
 from . import sibling
+from .run import Run
 
 
 def export_animation(scene, frames, directory):
@@ -28,3 +29,11 @@ def export_animation(scene, frames, directory):
         json.dump(animation, f, indent=1)
     os.replace(tmp, os.path.join(directory, ANIMATION_FILE))
     return exported.warnings
+
+
+def prepare_run(scene, frames, out_dir, options, progress=None, cancel=None):
+    """Export ``frames`` of ``scene`` into ``out_dir``/scene and return (Run, warnings);
+    the Run needs no Blender and may execute in any thread (``run.execute()``)."""
+    animation_dir = os.path.join(out_dir, "scene")
+    warnings = export_animation(scene, frames, animation_dir)
+    return Run(animation_dir, out_dir, frames, options, progress=progress, cancel=cancel), warnings

@@ -230,6 +230,11 @@ class Run:
         return self._write_summary(cancelled=self.cancel.is_set(), video=os.path.abspath(mp4),
                                    video_frames=len(finished))
 
+    def execute(self):
+        """Render, then the pictures and the video; returns the summary."""
+        self.render()
+        return self.make_video()
+
     def failed(self):
         return [f for f in self.frames if self.status.get(f, {}).get("status") == "failed"]
 

@@ -50,20 +50,40 @@ def _exposure(text):
         raise argparse.ArgumentTypeError(f"'{text}': expected a number of stops or 'auto'") from None
 
 
+def _tracer(text):
+    import volpath
+
+    if text != "auto" and text not in volpath.TRACERS:
+        raise argparse.ArgumentTypeError(f"unknown tracer '{text}' (expected auto or one of: {', '.join(volpath.TRACERS)})")
+    return text
+
+
+def _count(minimum):
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{text}': expected an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{value}: must be at least {minimum}")
+        return value
+    return parse
+
+
 def parser():
     p = argparse.ArgumentParser(prog="python -m pipeline.sunrise", description=__doc__.split("\n\n")[0])
     p.add_argument("--blend", help=f"the .blend to render (default: the open file inside Blender, else {DEFAULT_BLEND})")
     p.add_argument("--frames", type=_frames, help="frame or range, e.g. 1-72 (default: the scene's range)")
-    p.add_argument("--step", type=int, help="render every STEP-th frame (default: the scene's frame step)")
+    p.add_argument("--step", type=_count(1), help="render every STEP-th frame (default: the scene's frame step)")
     p.add_argument("--res", type=_resolution, help="WIDTHxHEIGHT (default: the scene's output size)")
-    p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's Volpath samples)")
-    p.add_argument("--tracer", help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)")
+    p.add_argument("--spp", type=_count(1), help="samples per pixel (default: the scene's Volpath samples)")
+    p.add_argument("--tracer", type=_tracer, help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)")
     p.add_argument("--out", default=os.path.join("out", "sunrise"), help="output directory (default: out/sunrise)")
-    p.add_argument("--fps", type=int, default=24, help="video frame rate (default: 24)")
+    p.add_argument("--fps", type=_count(1), default=24, help="video frame rate (default: 24)")
     p.add_argument("--exposure", type=_exposure, default="auto",
                    help="stops for the PNGs and video, or 'auto' (middle grey, smoothed over frames; the default)")
-    p.add_argument("--workers", type=int, default=0, help="local worker processes (default: one per core)")
-    p.add_argument("--threads", type=int, default=0, help="threads per frame (default: cores / workers; 1 on Dask)")
+    p.add_argument("--workers", type=_count(0), default=0, help="local worker processes (default: one per core)")
+    p.add_argument("--threads", type=_count(0), default=0, help="threads per frame (default: cores / workers; 1 on Dask)")
     p.add_argument("--scheduler", default="", help="Dask distributed scheduler address, e.g. tcp://host:8786")
     p.add_argument("--resume", action="store_true", help="keep frames whose EXR exists and reads back valid")
     return p
@@ -121,30 +141,25 @@ def settings_to_frames(scene, frames=None, step=None):
     return list(range(first, last + 1, step))
 
 
-def render_animation(scene, frames, out, options, progress=None, cancel=None, log=print):
-    """Export, render, make the video; returns the exit status (the add-on's operator
-    runs the same steps, the rendering in a background thread)."""
+def render_animation(scene, frames, out, options):
+    """Export, render, make the video; returns the exit status."""
     from . import sibling
-    from .export import export_animation
-    from .run import Run
+    from .export import prepare_run
 
     start = time.monotonic()
-    animation_dir = os.path.join(out, "scene")
     try:
-        warnings = export_animation(scene, frames, animation_dir)
+        run, warnings = prepare_run(scene, frames, out, options)
     except sibling("addon.export").ExportError as e:
-        log(f"error: {e}")
+        print(f"error: {e}", file=sys.stderr)
         return 2
     for w in warnings:
-        log(f"warning: {w}")
-    run = Run(animation_dir, out, frames, options, progress=progress, cancel=cancel)
-    run.render()
-    summary = run.make_video()
+        print(f"warning: {w}", file=sys.stderr)
+    summary = run.execute()
     failed = run.failed()
-    log(f"{len(frames) - len(failed)}/{len(frames)} frames in {time.monotonic() - start:.0f} s; "
+    print(f"{len(frames) - len(failed)}/{len(frames)} frames in {time.monotonic() - start:.0f} s; "
         f"video: {summary.get('video')}; summary: {run.summary_path}")
     for f in failed:
-        log(f"frame {f} failed: {run.status[f]['error']}")
+        print(f"frame {f} failed: {run.status[f]['error']}")
     return 1 if failed else 0
 
 

@@ -1,6 +1,7 @@
 """Blender scenes built by scripts (the `bpy` module, no .blend fixtures), shared by the
 add-on and pipeline tests."""
 
+import math
 import os
 import sys
 
@@ -128,3 +129,34 @@ def add_volume(path, material=None, location=(0, 0, 0)):
     if material is not None:
         obj.data.materials.append(material)
     return obj
+
+
+def tiny_animation(path=None, frames=4, spp=4, sky=False):
+    """A floor, a box, a keyframed sun (and optionally the atmosphere), 64x36; saved to
+    `path` when given."""
+    scene = blank_scene()
+    scene.render.resolution_x, scene.render.resolution_y = 64, 36
+    scene.frame_start, scene.frame_end = 1, frames
+    scene.volpath.spp = spp
+    bpy.ops.mesh.primitive_plane_add(size=20)
+    bpy.ops.mesh.primitive_cube_add(size=2, location=(0, 0, 1))
+    bpy.context.object.data.materials.append(material("box", Base_Color=(0.8, 0.3, 0.1, 1)))
+    bpy.ops.object.light_add(type="SUN")
+    sun = bpy.context.object
+    sun.data.energy = 5
+    for f, angle in ((1, 80), (frames, 30)):
+        sun.rotation_euler = (0, math.radians(angle), 0)
+        sun.keyframe_insert("rotation_euler", frame=f)
+    add_camera(scene, location=(0, -9, 3), rotation=(math.radians(75), 0, 0))
+    world = bpy.data.worlds.new("w")
+    scene.world = world
+    if world.node_tree is None:
+        world.use_nodes = True
+    if sky:
+        node = world.node_tree.nodes.new("ShaderNodeTexSky")
+        world.node_tree.links.new(node.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+    else:
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.5, 1)
+    if path is not None:
+        bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path

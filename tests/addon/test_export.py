@@ -180,3 +180,15 @@ def test_sky_texture_becomes_the_atmosphere(blank):
     assert np.all(np.isfinite(img))
     # Daylight sky: blue above the horizon.
     assert img[:8].mean(axis=(0, 1))[2] > img[:8].mean(axis=(0, 1))[0]
+
+
+def test_animation_render_writes_every_frame(blank, tmp_path):
+    from blender_scenes import tiny_animation
+
+    tiny_animation(frames=2)
+    scene = bpy.context.scene
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.filepath = str(tmp_path / "anim_")
+    bpy.ops.render.render(animation=True)
+    first, second = (volpath.read_exr(tmp_path / f"anim_{f:04d}.exr") for f in (1, 2))
+    assert first.mean() > 0 and not np.array_equal(first, second)  # the sun moved

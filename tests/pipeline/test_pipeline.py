@@ -1,0 +1,146 @@
+"""The sunrise pipeline end to end on a tiny animation: both entry points, resume after a
+kill, Dask against the local pool, a failing frame, bad options."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+import volpath
+from blender_scenes import ROOT, bpy, tiny_animation
+
+FRAMES = 4
+
+
+def cli(*args, env=None, **kw):
+    return subprocess.run([sys.executable, "-m", "pipeline.sunrise", *map(str, args)], cwd=ROOT,
+                          capture_output=True, text=True, env={**os.environ, **(env or {})}, **kw)
+
+
+def frames_on_disk(out):
+    return sorted(os.listdir(out / "frames"))
+
+
+def test_python_entry_point_makes_frames_metadata_and_video(tmp_path):
+    from pipeline.video import count_frames
+
+    blend = tiny_animation(tmp_path / "tiny.blend")
+    out = tmp_path / "out"
+    r = cli("--blend", blend, "--out", out, "--workers", 2)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert frames_on_disk(out) == [f"frame_{f:04d}.exr" for f in range(1, FRAMES + 1)]
+    suns = []
+    for f in range(1, FRAMES + 1):
+        image, meta = volpath.read_exr(out / "frames" / f"frame_{f:04d}.exr", metadata=True)
+        assert image.shape == (36, 64, 3) and np.all(np.isfinite(image)) and image.mean() > 0
+        assert meta["frame"] == f and meta["spp"] == 4 and meta["tracer"] in volpath.TRACERS
+        assert meta["volpath_version"] == volpath.__version__ and meta["seconds"] > 0
+        suns.append(meta["sun_direction"])
+    assert not np.allclose(suns[0], suns[-1], atol=1e-3)  # the keyframed sun moved
+    assert count_frames(str(out / "sunrise.mp4")) == FRAMES
+    summary = json.loads((out / "summary.json").read_text())
+    assert [summary["frames"][str(f)]["status"] for f in range(1, FRAMES + 1)] == ["rendered"] * FRAMES
+    assert summary["video_frames"] == FRAMES and (out / "contact_sheet.png").exists()
+
+
+def test_blender_entry_point(tmp_path):
+    """`blender -b tiny.blend --python pipeline/sunrise.py -- ...`: Blender runs the file as
+    __main__ with the .blend open and its own arguments before `--` (simulated with the
+    bpy module: no Blender executable is installed here)."""
+    blend = tiny_animation(tmp_path / "tiny.blend", frames=2)
+    out = tmp_path / "out"
+    script = textwrap.dedent(f"""
+        import runpy, sys
+        import bpy
+        bpy.ops.wm.open_mainfile(filepath={str(blend)!r})
+        sys.argv = ["blender", "-b", {str(blend)!r}, "--python", "pipeline/sunrise.py", "--",
+                    "--out", {str(out)!r}, "--res", "32x18", "--spp", "2"]
+        runpy.run_path("pipeline/sunrise.py", run_name="__main__")
+    """)
+    r = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert frames_on_disk(out) == ["frame_0001.exr", "frame_0002.exr"]
+    assert volpath.read_exr(out / "frames" / "frame_0001.exr").shape == (18, 32, 3)
+
+
+def test_kill_then_resume_renders_only_what_is_missing(tmp_path):
+    blend = tiny_animation(tmp_path / "tiny.blend", frames=8, spp=64, sky=True)
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "pipeline.sunrise", "--blend", str(blend), "--out", str(out),
+                          "--workers", "1", "--threads", "1"], cwd=ROOT, start_new_session=True,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and not (out / "frames" / "frame_0002.exr").exists():
+        time.sleep(0.05)
+    os.killpg(p.pid, signal.SIGKILL)
+    p.wait()
+    kept = {name: (out / "frames" / name).stat().st_mtime_ns for name in frames_on_disk(out)
+            if name.endswith(".exr") and not name.endswith(".tmp.exr")}
+    assert 2 <= len(kept) < 8, kept  # killed midway
+    r = cli("--blend", blend, "--out", out, "--resume", "--workers", 2)
+    assert r.returncode == 0, r.stderr[-3000:]
+    summary = json.loads((out / "summary.json").read_text())["frames"]
+    for name, mtime in kept.items():
+        frame = int(name[6:10])
+        assert summary[str(frame)]["status"] == "kept"
+        assert (out / "frames" / name).stat().st_mtime_ns == mtime  # untouched
+    rendered = [f for f, s in summary.items() if s["status"] == "rendered"]
+    assert len(rendered) == 8 - len(kept)
+    assert [n for n in frames_on_disk(out) if n.endswith(".exr")] == [f"frame_{f:04d}.exr" for f in range(1, 9)]
+
+
+def test_dask_cluster_gives_the_same_bits_as_the_local_pool(tmp_path):
+    from distributed import LocalCluster
+
+    from pipeline.export import export_animation
+    from pipeline.run import Options, Run, exr_path
+
+    tiny_animation(tmp_path / "tiny.blend", frames=3)
+    scene = bpy.context.scene
+    animation = tmp_path / "scene"
+    export_animation(scene, [1, 2, 3], str(animation))
+    local = Run(str(animation), str(tmp_path / "local"), [1, 2, 3], Options(spp=4, workers=2), progress=lambda *a: None)
+    local.render()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        dask = Run(str(animation), str(tmp_path / "dask"), [1, 2, 3], Options(spp=4, scheduler=cluster.scheduler_address),
+                   progress=lambda *a: None)
+        dask.render()
+    for f in (1, 2, 3):
+        a = volpath.read_exr(exr_path(str(tmp_path / "local"), f))
+        b = volpath.read_exr(exr_path(str(tmp_path / "dask"), f))
+        assert np.array_equal(a, b)
+    assert all(s["status"] == "rendered" for s in dask.status.values())
+
+
+def test_a_failing_frame_is_retried_reported_and_the_rest_completes(tmp_path):
+    from pipeline.video import count_frames
+
+    blend = tiny_animation(tmp_path / "tiny.blend")
+    out = tmp_path / "out"
+    r = cli("--blend", blend, "--out", out, env={"VOLPATH_FAIL_FRAMES": "2"})
+    assert r.returncode == 1
+    assert "frame 2 failed: RuntimeError: frame 2: failure requested" in r.stdout
+    summary = json.loads((out / "summary.json").read_text())["frames"]
+    assert summary["2"]["status"] == "failed" and summary["2"]["attempts"] == 2
+    assert all(summary[str(f)]["status"] == "rendered" for f in (1, 3, 4))
+    assert count_frames(str(out / "sunrise.mp4")) == 3
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--frames", "5-1"], "the range ends before it starts"),
+    (["--res", "0x5"], "expected WIDTHxHEIGHT"),
+    (["--tracer", "bogus"], "unknown tracer 'bogus'"),
+    (["--spp", "0"], "--spp: 0: must be at least 1"),
+    (["--exposure", "bright"], "expected a number of stops or 'auto'"),
+    (["--blend", "/nonexistent.blend"], "no such .blend file"),
+])
+def test_bad_options_get_a_clear_message(tmp_path, args, message):
+    r = cli("--out", tmp_path / "out", *args)
+    assert r.returncode == 2
+    assert message in r.stderr
