@@ -50,9 +50,11 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 	  echo "libllvm19 unavailable: Mitsuba's llvm variant will be skipped"; }
 	touch $@
 
-bench: setup $(VENV)/.bench
+bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/compare_mitsuba.py --out bench/RESULTS.md
 	$(PY) bench/export_speed.py --append bench/RESULTS.md
+	$(PY) bench/pipeline_throughput.py --append bench/RESULTS.md
+	$(PY) bench/cycles_sunrise.py --append bench/RESULTS.md
 
 # The self-contained manylinux wheel that the Blender extension bundles (dist/).
 wheel: setup

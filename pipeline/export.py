@@ -22,6 +22,10 @@ def export_animation(scene, frames, directory):
         exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
     finally:
         scene.frame_set(current)
+    if len(frames) > 1:
+        for name in exported.sequences:
+            exported.warnings.append(f"volume '{name}' is a VDB sequence: the pipeline renders every frame with "
+                                     f"its grid at frame {frames[0]} (F12 and animation renders follow the sequence)")
     export.write_directory(exported, directory)
     animation = {"suns": exported.suns, "frames": export.animation(scene, frames)}
     tmp = os.path.join(directory, ANIMATION_FILE + ".tmp")

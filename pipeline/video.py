@@ -10,13 +10,17 @@ import zlib
 import numpy as np
 
 
-def tonemap(image, exposure=0.0):
-    """Linear radiance -> 8-bit sRGB: scale by 2^exposure, the ACES filmic fit (Narkowicz
-    2015), the sRGB transfer curve."""
+def display(image, exposure=0.0):
+    """Linear radiance -> display values in [0, 1]: scale by 2^exposure, the ACES filmic
+    fit (Narkowicz 2015), the sRGB transfer curve."""
     x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0 ** exposure, 0.0)
     film = np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
-    srgb = np.where(film <= 0.0031308, 12.92 * film, 1.055 * film ** (1 / 2.4) - 0.055)
-    return np.round(srgb * 255).astype(np.uint8)
+    return np.where(film <= 0.0031308, 12.92 * film, 1.055 * film ** (1 / 2.4) - 0.055)
+
+
+def tonemap(image, exposure=0.0):
+    """Linear radiance -> 8-bit sRGB (``display``, rounded)."""
+    return np.round(display(image, exposure) * 255).astype(np.uint8)
 
 
 def auto_exposure(images, frames, window=12):

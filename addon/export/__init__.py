@@ -37,10 +37,12 @@ class Report:
 
 class Exported:
     """``scene``: the dictionary; ``warnings``/``notes``: what the report shows;
-    ``suns``: keys of the sun emitters, with the Blender objects they came from."""
+    ``suns``: keys of the sun emitters, with the Blender objects they came from;
+    ``sequences``: names of the volume objects whose VDB file changes with the frame."""
 
-    def __init__(self, scene, report, suns):
-        self.scene, self.warnings, self.notes, self.suns = scene, report.warnings, report.notes, suns
+    def __init__(self, scene, report, suns, sequences):
+        self.scene, self.warnings, self.notes = scene, report.warnings, report.notes
+        self.suns, self.sequences = suns, sequences
 
 
 _CONVERTIBLE = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -55,7 +57,7 @@ def export_scene(depsgraph):
          "integrator": {"type": "volpath", "max_depth": int(settings.max_depth), "rr_depth": int(settings.rr_depth),
                         "max_null_collisions": int(settings.max_null_collisions)},
          "camera": camera.export(scene, report)}
-    suns = {}
+    suns, sequences = {}, []
     sun_lamps = [inst for inst in depsgraph.object_instances
                  if inst.object.type == "LIGHT" and inst.object.data.type == "SUN"]
     sky = world.export(scene, report, has_sun_lamp=bool(sun_lamps))
@@ -65,14 +67,19 @@ def export_scene(depsgraph):
         # not apply to the world either.
         d["camera"]["far_clip"] = max(d["camera"]["far_clip"], 1e9)
     exterior = {"type": "ref", "id": "air"} if "air" in sky else None
-    mesh_cache = {}
-    names = set()
+    meshes_by_data, materials_by_name = {}, {}
 
-    def key(name):
+    def material(m):
+        name = m.name if m is not None else None
+        if name not in materials_by_name:
+            materials_by_name[name] = materials.export(m, report)
+        return materials_by_name[name]
+
+    def add(name, entry):
         k, i = name, 1
-        while k in names or k in d:
+        while k in d:
             k, i = f"{name}.{i}", i + 1
-        names.add(k)
+        d[k] = entry
         return k
 
     for inst in depsgraph.object_instances:
@@ -80,44 +87,51 @@ def export_scene(depsgraph):
         if obj.type == "LIGHT":
             entry = lights.export(obj, inst.matrix_world, report)
             if entry is not None:
-                k = key(obj.name)
-                d[k] = entry
+                k = add(obj.name, entry)
                 if entry["type"] == "sun":
                     suns[k] = obj.original.name
         elif obj.type in _CONVERTIBLE:
-            data = obj.data.original if obj.data is not None else obj.original
-            cache_key = (data.name, data.library.name if getattr(data, "library", None) else None,
-                         obj.original.name if obj.modifiers else "")
-            if cache_key not in mesh_cache:
-                mesh_cache[cache_key] = meshes.triangles(obj)
-            slots = [s.material for s in obj.material_slots]
-            to_world = np.array(inst.matrix_world, dtype=np.float64)
-            to_world = convert.matrix(to_world)
-            for index, (positions, indices, normals) in mesh_cache[cache_key].items():
-                material = slots[index] if index < len(slots) else None
-                bsdf, radiance, medium = materials.export(material, report)
-                shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": bsdf}
-                if normals is not None:
-                    shape["normals"] = normals
-                if radiance is not None:
-                    shape["emitter"] = {"type": "area", "radiance": convert.rgb(radiance)}
-                if medium is not None:
-                    shape["interior"] = materials.homogeneous(medium)
-                    if exterior is not None:
-                        shape["exterior"] = exterior
-                d[key(obj.name if len(mesh_cache[cache_key]) == 1 else f"{obj.name}.{material.name if material else index}")] = shape
+            for name, shape in _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
+                add(name, shape)
         elif obj.type == "VOLUME":
-            material = obj.material_slots[0].material if obj.material_slots else None
-            _, _, medium = materials.export(material, report)
-            if material is None or medium is None:
-                medium = {"sigma_a": np.full(3, 0.5), "sigma_s": np.full(3, 0.5), "g": 0.0, "attribute": "density"}
+            slot = obj.material_slots[0].material if obj.material_slots else None
+            medium = material(slot)[2] or {"sigma_a": np.full(3, 0.5), "sigma_s": np.full(3, 0.5), "g": 0.0,
+                                           "attribute": "density"}  # Blender's default volume
             entry = volumes.export(obj, inst.matrix_world, medium, report, exterior)
             if entry is not None:
                 entry["interior"]["majorant_resolution"] = int(settings.majorant_resolution)
-                d[key(obj.name)] = entry
+                add(obj.name, entry)
+                if obj.data.is_sequence:
+                    sequences.append(obj.original.name)
         elif obj.type not in ("CAMERA", "EMPTY", "ARMATURE", "LIGHT_PROBE", "SPEAKER", "LATTICE"):
             report.warn(f"object '{obj.name}': {obj.type.lower()} objects are not supported (skipped)")
-    return Exported(d, report, suns)
+    return Exported(d, report, suns, sequences)
+
+
+def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
+    """(name, shape) per material slot of one mesh instance; the triangle arrays of a mesh
+    datablock are computed once and shared by its instances (unless modifiers differ)."""
+    data = obj.data.original if obj.data is not None else obj.original
+    key = (data.name, data.library.name if getattr(data, "library", None) else None,
+           obj.original.name if obj.modifiers else "")
+    if key not in meshes_by_data:
+        meshes_by_data[key] = meshes.triangles(obj)
+    parts = meshes_by_data[key]
+    slots = [s.material for s in obj.material_slots]
+    to_world = convert.matrix(inst.matrix_world)
+    for index, (positions, indices, normals) in parts.items():
+        m = slots[index] if index < len(slots) else None
+        bsdf, radiance, medium = material(m)
+        shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": bsdf}
+        if normals is not None:
+            shape["normals"] = normals
+        if radiance is not None:
+            shape["emitter"] = {"type": "area", "radiance": convert.rgb(radiance)}
+        if medium is not None:
+            shape["interior"] = materials.homogeneous(medium)
+            if exterior is not None:
+                shape["exterior"] = exterior
+        yield (obj.name if len(parts) == 1 else f"{obj.name}.{m.name if m else index}"), shape
 
 
 def animation(scene, frames):

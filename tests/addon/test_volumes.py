@@ -65,3 +65,22 @@ def test_missing_vdb_is_a_clear_error(blank, tmp_path, capfd):
         render_f12(blank, render_result)  # Blender refuses to save a failed render ...
     out = capfd.readouterr()
     assert "Volpath: volume 'gone': VDB file" in out.out + out.err  # ... and the report says why
+
+
+def test_vdb_sequence_follows_the_frame(blank, tmp_path):
+    base = _cloud()
+    for frame, scale in ((1, 1.0), (2, 3.0)):
+        write_vdb(tmp_path / f"puff_{frame:04d}.vdb", base * scale)
+    bpy.ops.object.volume_import(filepath=str(tmp_path / "puff_0001.vdb"), directory=str(tmp_path),
+                                 files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}])
+    volume = bpy.context.object
+    volume.data.materials.append(volume_material("smoke"))
+    assert volume.data.is_sequence
+    add_camera(blank)
+    peaks = []
+    for frame in (1, 2):
+        blank.frame_set(frame)
+        exported = export_scene(depsgraph())
+        assert exported.sequences == [volume.name]
+        peaks.append(exported.scene[volume.name]["interior"]["density"]["data"].max())
+    assert peaks[1] == pytest.approx(3 * peaks[0])
