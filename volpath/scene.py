@@ -596,8 +596,12 @@ class _Builder:
                     raise p.error(f"'albedo' must be at most 1, got {list(albedo)}")
                 sigma_s = sigma_t * albedo
                 sigma_a = sigma_t - sigma_s
-            index = self.native.add_medium_homogeneous(tuple(sigma_a), tuple(sigma_s), g)
+            Le = p.rgb("radiance", 0.0)
+            if np.any(Le > 0) and not np.any(sigma_a > 0):
+                raise p.error("'radiance' needs absorption: the medium emits sigma_a * radiance")
+            index = self.native.add_medium_homogeneous(tuple(sigma_a), tuple(sigma_s), g, tuple(Le))
             self.summary["media"].append({"index": index, "type": "homogeneous", "sigma_t": (sigma_a + sigma_s).tolist(),
+                                          "emissive": bool(np.any(Le > 0)),
                                           "albedo": np.divide(sigma_s, sigma_a + sigma_s, out=np.zeros(3), where=(sigma_a + sigma_s) > 0).tolist(),
                                           "g": g, "loc": p.loc})
         elif p.type == "heterogeneous":
@@ -618,15 +622,17 @@ class _Builder:
                 albedo = p.rgb("albedo", 0.75)
             if np.any(albedo > 1) or (albedo_grid is not None and albedo_grid.max() > 1):
                 raise p.error("'albedo' must be at most 1")
+            Le_grid, Le_scale = self.grid_emission(p, density, to_world)
             world_to_grid = np.linalg.inv(to_world)
             majorant_res = p.int("majorant_resolution", 8)
             if not 1 <= majorant_res <= 20:
                 raise p.error("'majorant_resolution' must be in 1..20 (1: one global majorant)")
             index = self.native.add_medium_grid(density, albedo_grid, tuple(albedo), scale, world_to_grid, g,
-                                                majorant_res)
+                                                majorant_res, Le_grid, tuple(Le_scale))
             self.summary["media"].append({"index": index, "type": "heterogeneous",
                                           "sigma_t_range": [float(density.min() * scale), float(density.max() * scale)],
                                           "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc,
+                                          "emissive": bool(np.any(Le_scale > 0)),
                                           "albedo": [float(albedo_grid.max())] * 3 if albedo_grid is not None
                                           else albedo.tolist()})
         elif p.type == "atmosphere":
@@ -636,6 +642,38 @@ class _Builder:
         p.check()
         self.media[id(d)] = index
         return index
+
+    def grid_emission(self, p, density, to_world):
+        """(Le grid or None, Le scale) of a heterogeneous medium: `radiance` (an rgb or a
+        grid), or blackbody radiance from a `temperature` grid (kelvin) times
+        `blackbody_scale`. Grids share the density's bounding box and resolution-free
+        placement; the medium emits sigma_a * Le."""
+        from .blackbody import blackbody_rgb
+
+        if p.has("radiance") and p.has("temperature"):
+            raise p.error("give 'radiance' or 'temperature', not both")
+        if p.has("temperature"):
+            grid, grid_to_world = self.volume(p, "temperature", 0.0)
+            if grid.shape[3] != 1:
+                raise p.error("'temperature' must be a one-channel grid (kelvin)")
+            if grid.shape[:3] != (1, 1, 1) and not np.allclose(grid_to_world, to_world):
+                raise p.error("the temperature grid must have the same to_world and bounding box as the density grid")
+            scale = p.float("blackbody_scale", 1.0, minimum=0.0)
+            Le = blackbody_rgb(grid[..., 0]).astype(np.float32)
+            if grid.shape[:3] == (1, 1, 1):
+                return None, Le.reshape(3).astype(np.float64) * scale
+            return np.ascontiguousarray(Le), np.full(3, scale)
+        v = self.resolve(p.raw("radiance", 0.0))
+        if isinstance(v, dict) and _kind(v) == "volume":
+            grid, grid_to_world = self.volume(p, "radiance", 0.0)
+            if grid.shape[:3] != (1, 1, 1):
+                if not np.allclose(grid_to_world, to_world):
+                    raise p.error("the radiance grid must have the same to_world and bounding box as the density grid")
+                if grid.min() < 0:
+                    raise p.error("'radiance' must not be negative")
+                return grid, np.ones(3)
+            return None, np.broadcast_to(grid.reshape(-1), (3,)).astype(np.float64)
+        return None, p.rgb("radiance", 0.0)
 
     def atmosphere(self, p, scale):
         """The planet's air, its top-of-atmosphere boundary and (unless ground=false) the

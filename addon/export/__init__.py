@@ -72,7 +72,9 @@ def export_scene(depsgraph):
     def material(m):
         name = m.name if m is not None else None
         if name not in materials_by_name:
-            materials_by_name[name] = materials.export(m, report)
+            bsdf, radiance, medium = materials.export(m, report)
+            interior = materials.homogeneous(medium, report, f"material '{name}'") if medium is not None else None
+            materials_by_name[name] = bsdf, radiance, medium, interior
         return materials_by_name[name]
 
     def add(name, entry):
@@ -121,14 +123,14 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
     to_world = convert.matrix(inst.matrix_world)
     for index, (positions, indices, normals) in parts.items():
         m = slots[index] if index < len(slots) else None
-        bsdf, radiance, medium = material(m)
+        bsdf, radiance, _, interior = material(m)
         shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": bsdf}
         if normals is not None:
             shape["normals"] = normals
         if radiance is not None:
             shape["emitter"] = {"type": "area", "radiance": convert.rgb(radiance)}
-        if medium is not None:
-            shape["interior"] = materials.homogeneous(medium)
+        if interior is not None:
+            shape["interior"] = interior
             if exterior is not None:
                 shape["exterior"] = exterior
         yield (obj.name if len(parts) == 1 else f"{obj.name}.{m.name if m else index}"), shape

@@ -5,9 +5,11 @@ What maps (shared/README.md §5 gives Blender's radiometry):
                        Level give the coat's F0), diffuse when F0 is 0, or, with
                        transmission, dielectric (IOR); emission colour x strength -> area emitter
   Diffuse / Glass / Emission -> diffuse / dielectric / area emitter on a black diffuse
-  Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - absorption colour)
+  Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - absorption colour);
+                       emission E (per unit length) -> Le = E / sigma_a; blackbody -> Le = intensity x
+                       Planck radiance at the temperature (times the temperature grid, for volumes)
   Volume Scatter    -> sigma_s = density colour;  Volume Absorption -> sigma_a = density (1 - colour)
-Everything else (textures plugged into inputs, other nodes, volume emission) is reported as
+Everything else (textures plugged into inputs, other nodes) is reported as
 a warning and replaced by the input's default value, never ignored silently.
 """
 
@@ -110,10 +112,14 @@ def _volume(node, owner, report):
         density, color = get("Density"), np.clip(get("Color"), 0, 1)
         sigma_s = density * color
         sigma_a = density * (1 - color) * np.clip(1 - get("Absorption Color"), 0, 1)
-        if get("Emission Strength") > 0 or get("Blackbody Intensity") > 0:
-            report.warn(f"{owner}: volume emission and blackbody are not supported yet (ignored)")
+        tint = get("Blackbody Tint")
+        if np.ptp(tint) > 1e-6:
+            report.warn(f"{owner}: a coloured Blackbody Tint is not supported; using its mean")
         return {"sigma_a": sigma_a, "sigma_s": sigma_s, "g": get("Anisotropy"),
-                "attribute": node.inputs["Density Attribute"].default_value or "density"}
+                "attribute": node.inputs["Density Attribute"].default_value or "density",
+                "emission": get("Emission Color") * get("Emission Strength"),
+                "blackbody": get("Blackbody Intensity") * float(np.mean(tint)), "temperature": get("Temperature"),
+                "temperature_attribute": node.inputs["Temperature Attribute"].default_value or "temperature"}
     if kind == "ShaderNodeVolumeScatter":
         return {"sigma_a": np.zeros(3), "sigma_s": get("Density") * np.clip(get("Color"), 0, 1),
                 "g": get("Anisotropy"), "attribute": "density"}
@@ -124,8 +130,29 @@ def _volume(node, owner, report):
     return None
 
 
-def homogeneous(medium):
+def emitted_radiance(medium, sigma_a, temperature, report, owner):
+    """Volpath's Le (the medium emits sigma_a Le) for Blender's emission coefficient
+    E = Emission Colour x Strength (emitted per unit length: Le = E / sigma_a) plus
+    blackbody emission at `temperature` (Le = Blackbody Intensity x the Planck radiance,
+    Kirchhoff's law). Broadcasts over grids; 0 where nothing absorbs, reported."""
+    from volpath.blackbody import blackbody_rgb
+
+    E = np.asarray(medium.get("emission", np.zeros(3)), dtype=np.float64)
+    sigma_a = np.asarray(sigma_a, dtype=np.float64)
+    Le = np.divide(E, sigma_a, out=np.zeros(np.broadcast(E, sigma_a).shape), where=sigma_a > 0)
+    if np.any(E > 0) and np.any((sigma_a <= 0) & (E > 0)):
+        report.warn(f"{owner}: emission where nothing absorbs is not rendered (Volpath media emit sigma_a x Le)")
+    if medium.get("blackbody", 0) > 0:
+        Le = Le + medium["blackbody"] * blackbody_rgb(temperature)
+    return Le
+
+
+def homogeneous(medium, report, owner):
     """The homogeneous medium of a mesh's volume material (coefficients per Blender unit,
     which is the scene unit)."""
-    return {"type": "homogeneous", "sigma_a": convert.rgb(medium["sigma_a"]), "sigma_s": convert.rgb(medium["sigma_s"]),
-            "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
+    d = {"type": "homogeneous", "sigma_a": convert.rgb(medium["sigma_a"]), "sigma_s": convert.rgb(medium["sigma_s"]),
+         "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
+    Le = emitted_radiance(medium, medium["sigma_a"], medium.get("temperature", 0.0), report, owner)
+    if np.any(Le > 0):
+        d["radiance"] = convert.rgb(Le)
+    return d

@@ -26,17 +26,20 @@ def _openvdb():
     return openvdb
 
 
-def read_grid(path, name):
-    """(dense (z, y, x, 1) float32 array, index of its first voxel) of one float grid."""
+def read_grid(path, name, box=None):
+    """(dense (z, y, x, 1) float32 array, index of its first voxel) of one float grid, over
+    its active voxels or over `box` = (first index, (nx, ny, nz))."""
     vdb = _openvdb()
     grid = vdb.read(path, name)
-    (i0, j0, k0), (i1, j1, k1) = grid.evalActiveVoxelBoundingBox()
-    shape = (i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1)
+    if box is None:
+        (i0, j0, k0), (i1, j1, k1) = grid.evalActiveVoxelBoundingBox()
+        box = ((i0, j0, k0), (i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1))
+    first, shape = tuple(int(i) for i in box[0]), tuple(int(n) for n in box[1])
     if min(shape) < 1:
         return None, None
     dense = np.zeros(shape, np.float32)
-    grid.copyToArray(dense, ijk=(i0, j0, k0))
-    return np.ascontiguousarray(dense.transpose(2, 1, 0)[..., None]), np.array([i0, j0, k0], np.float64)
+    grid.copyToArray(dense, ijk=first)
+    return np.ascontiguousarray(dense.transpose(2, 1, 0)[..., None]), np.array(first, np.float64)
 
 
 def export(obj, matrix_world, medium, report, exterior):
@@ -74,6 +77,13 @@ def export(obj, matrix_world, medium, report, exterior):
     if np.ptp(sigma_t) > 1e-6 * scale:
         report.warn(f"{owner}: coloured extinction is not supported for grids; using its mean")
     albedo = np.clip(medium["sigma_s"] / scale, 0, 1)
+    interior = {"type": "heterogeneous", "scale": scale,
+                "density": {"type": "gridvolume", "data": data},
+                "albedo": {"type": "rgb", "value": albedo.tolist()},
+                "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
+    radiance = _emission(volume, path, medium, data, first, scale, albedo, report, owner)
+    if radiance is not None:
+        interior["radiance"] = {"type": "gridvolume", "data": radiance}
     res = np.array(data.shape[2::-1], np.float64)
     box = np.eye(4)
     box[:3, :3] = np.diag(res)
@@ -82,11 +92,33 @@ def export(obj, matrix_world, medium, report, exterior):
     cube = np.eye(4)
     cube[:3, :3] = np.diag([0.5, 0.5, 0.5])
     cube[:3, 3] = 0.5
-    shape = {"type": "cube", "to_world": grid_to_world @ cube, "bsdf": {"type": "null"},
-             "interior": {"type": "heterogeneous", "scale": scale,
-                          "density": {"type": "gridvolume", "data": data, "to_world": grid_to_world},
-                          "albedo": {"type": "rgb", "value": albedo.tolist()},
-                          "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}}
+    for grid_entry in ("density", "radiance"):
+        if grid_entry in interior:
+            interior[grid_entry]["to_world"] = grid_to_world
+    shape = {"type": "cube", "to_world": grid_to_world @ cube, "bsdf": {"type": "null"}, "interior": interior}
     if exterior is not None:
         shape["exterior"] = exterior
     return shape
+
+
+def _emission(volume, path, medium, density, first, scale, albedo, report, owner):
+    """The radiance grid (z, y, x, 3) of an emitting volume, or None: Blender's emission
+    coefficient over sigma_a, plus blackbody radiance at Temperature x the temperature grid
+    (read over the density's box)."""
+    from .materials import emitted_radiance
+
+    if not (np.any(np.asarray(medium.get("emission", 0)) > 0) or medium.get("blackbody", 0) > 0):
+        return None
+    temperature = np.full(density.shape[:3], medium.get("temperature", 0.0))
+    if medium.get("blackbody", 0) > 0:
+        name = medium["temperature_attribute"]
+        if volume.grids.get(name) is not None:
+            grid, _ = read_grid(path, name, (first, density.shape[2::-1]))
+            temperature = temperature * grid[..., 0]
+        else:
+            report.warn(f"{owner}: no '{name}' grid: blackbody at the constant Temperature")
+    sigma_a = scale * density * (1 - albedo)  # (z, y, x, 3)
+    Le = emitted_radiance(medium, sigma_a, temperature, report, owner)
+    if not np.any(Le > 0):
+        return None
+    return np.ascontiguousarray(Le, dtype=np.float32)

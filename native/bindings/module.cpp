@@ -166,17 +166,20 @@ PYBIND11_MODULE(_core, m) {
              },
              py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
         .def("add_medium_homogeneous",
-             [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g) {
-                 return s.add_medium(HomogeneousMedium{vec(sigma_a), vec(sigma_s), phase(g)});
+             [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g, Array3 Le) {
+                 return s.add_medium(HomogeneousMedium{vec(sigma_a), vec(sigma_s), phase(g), vec(Le)});
              },
-             py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0)
+             py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0, py::arg("Le") = Array3{0.0, 0.0, 0.0})
         .def("add_medium_grid",
              [](Scene &s, const FloatArray &density, std::optional<FloatArray> albedo_grid, Array3 albedo,
-                double scale, const DoubleArray &world_to_grid, double g, int majorant_res) {
+                double scale, const DoubleArray &world_to_grid, double g, int majorant_res,
+                std::optional<FloatArray> Le_grid, Array3 Le_scale) {
                  GridMedium gm;
                  gm.majorant_res = majorant_res;
                  gm.density = voxel_grid(density);
                  if (albedo_grid) gm.albedo_grid = voxel_grid(*albedo_grid);
+                 if (Le_grid) gm.Le_grid = voxel_grid(*Le_grid);
+                 gm.Le_scale = vec(Le_scale);
                  gm.albedo = vec(albedo);
                  gm.scale = scale;
                  gm.world_to_grid = transform(world_to_grid);
@@ -184,7 +187,8 @@ PYBIND11_MODULE(_core, m) {
                  return s.add_medium(gm);
              },
              py::arg("density"), py::arg("albedo_grid"), py::arg("albedo"), py::arg("scale"),
-             py::arg("world_to_grid"), py::arg("g") = 0.0, py::arg("majorant_res") = 8)
+             py::arg("world_to_grid"), py::arg("g") = 0.0, py::arg("majorant_res") = 8,
+             py::arg("Le_grid") = py::none(), py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
         .def("add_mesh",
              [](Scene &s, const DoubleArray &positions, const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                 std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,

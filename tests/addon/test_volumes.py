@@ -84,3 +84,40 @@ def test_vdb_sequence_follows_the_frame(blank, tmp_path):
         assert exported.sequences == [volume.name]
         peaks.append(exported.scene[volume.name]["interior"]["density"]["data"].max())
     assert peaks[1] == pytest.approx(3 * peaks[0])
+
+
+def test_fire_blackbody_and_emission_become_radiance(blank, tmp_path):
+    """A VDB with density and temperature grids (as Blender's fire), rendered in Cycles'
+    terms: Principled Volume emission over sigma_a, and blackbody radiance from
+    Temperature x the temperature grid."""
+    from addon.export.volumes import _openvdb
+    from volpath.blackbody import blackbody_rgb
+
+    vdb = _openvdb()
+    density, temperature = vdb.FloatGrid(), vdb.FloatGrid()
+    density.name, temperature.name = "density", "temperature"
+    d = np.zeros((6, 6, 6), np.float32)
+    d[1:5, 1:5, 1:5] = 2.0
+    t = np.zeros((8, 8, 8), np.float32)  # a larger active box than the density's
+    t[:, :, :] = 1.5
+    density.copyFromArray(d)
+    temperature.copyFromArray(t)
+    for g in (density, temperature):
+        g.transform = vdb.createLinearTransform(voxelSize=0.1)
+    vdb.write(str(tmp_path / "fire.vdb"), grids=[density, temperature])
+    m = volume_material("fire", density=1.0, color=(0.2, 0.2, 0.2))
+    pv = m.node_tree.nodes["Principled Volume"]
+    pv.inputs["Blackbody Intensity"].default_value = 1.0
+    pv.inputs["Temperature"].default_value = 1000.0  # kelvin per unit of the grid
+    pv.inputs["Emission Strength"].default_value = 0.8
+    pv.inputs["Emission Color"].default_value = (1.0, 0.5, 0.0, 1.0)
+    add_volume(tmp_path / "fire.vdb", m)
+    add_camera(blank)
+    interior = export_scene(depsgraph()).scene["fire"]["interior"]
+    Le = interior["radiance"]["data"]
+    assert Le.shape == (4, 4, 4, 3)  # the density's active box
+    sigma_a = 2.0 * 0.8  # density x (1 - colour)
+    expected = np.array([0.8, 0.4, 0.0]) / sigma_a + blackbody_rgb(1500.0)
+    assert np.allclose(Le[2, 2, 2], expected, rtol=1e-5)
+    scene = volpath.load_dict(export_scene(depsgraph()).scene)
+    assert scene.summary["media"][0]["emissive"]

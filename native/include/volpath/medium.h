@@ -10,9 +10,12 @@
 
 namespace volpath {
 
+// Media emit sigma_a * Le per unit length (pbrt's convention: Kirchhoff's law for a
+// medium at temperature T has Le = the Planck radiance B(T)).
 struct HomogeneousMedium {
     Spectrum sigma_a, sigma_s;
     PhaseFunction phase;
+    Spectrum Le{0.0};
 };
 
 // A dense voxel grid filling [0,1]^3 in its own space, x fastest, 1 or 3 channels.
@@ -41,6 +44,8 @@ struct GridMedium {
     VoxelGrid density;
     VoxelGrid albedo_grid;  // empty: use `albedo`
     Spectrum albedo{1.0};
+    VoxelGrid Le_grid;      // empty: Le = Le_scale everywhere
+    Spectrum Le_scale{0.0};
     Real scale = 1;
     Transform world_to_grid;
     int majorant_res = 8;  // measured: 8 beats 16 and a global majorant (3x on a sparse cloud)
@@ -74,7 +79,10 @@ using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;
 
 struct MediumProperties {
     Spectrum sigma_a, sigma_s;
+    Spectrum Le{0.0};
 };
+
+bool is_emissive(const Medium &m);
 
 inline bool is_homogeneous(const Medium &m) { return std::holds_alternative<HomogeneousMedium>(m); }
 MediumProperties medium_properties(const Medium &m, const Vec3 &p);

@@ -130,12 +130,14 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
 }  // namespace
 
 void check_tracer_supports(const Scene &scene, Tracer tracer) {
-    if (tracer == Tracer::NullScattering) return;
+    // The absorption tracer crosses any medium by ratio tracking; the scattering tracers
+    // before null scattering sample free flights in homogeneous media only.
+    if (tracer == Tracer::NullScattering || tracer == Tracer::Absorption) return;
     for (size_t i = 0; i < scene.media.size(); ++i) {
         if (!is_homogeneous(scene.media[i]))
             throw std::invalid_argument(
                 "medium " + std::to_string(i) +
-                " is heterogeneous: only the null_scattering tracer renders heterogeneous media");
+                " is heterogeneous: only the absorption and null_scattering tracers render heterogeneous media");
     }
 }
 
@@ -156,6 +158,15 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
 
     // No further scattering allowed: only emitters hit by the next ray could still count.
     auto last_vertex = [&] { return feat.max_depth >= 0 && depth + 1 >= feat.max_depth; };
+
+    // Medium emission sigma_a Le at a tentative collision, found with density
+    // T_seg sigma_maj (pbrt-v4): only path sampling finds it, so its weight is 1 / r_e.
+    auto add_medium_emission = [&](const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+        if (is_black(mp.Le) || (feat.max_depth >= 0 && depth >= feat.max_depth)) return;
+        const Real pdf = T_seg[channel] * sigma_maj[channel];
+        const Spectrum r_e = r_u * sigma_maj * T_seg / pdf;
+        if (pdf > 0 && average(r_e) > 0) L += beta * T_seg / pdf * mp.sigma_a * mp.Le / average(r_e);
+    };
 
     // Emission found by following the path: weighted against NEE where both can find it.
     auto add_emission = [&](const Spectrum &Le, Real pdf_light_dir) {
@@ -202,9 +213,36 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                 }
                 branch = Branch::All;
             }
-            if (!scatters) {
-                // Nothing scatters: the transmittance is exact and needs no sampling.
-                beta *= exp(-(h->sigma_a + h->sigma_s) * (t_end - ray.t_min));
+            if (!scatters && h) {
+                // Nothing scatters: transmittance and emission are exact, no sampling:
+                // the emission integral of sigma_a Le T(t) over the segment.
+                const Spectrum sigma_t = h->sigma_a + h->sigma_s;
+                const Real d = t_end - ray.t_min;
+                if (!is_black(h->Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
+                    Spectrum span;
+                    for (int c = 0; c < 3; ++c)
+                        span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
+                    L += beta * h->sigma_a * h->Le * span / average(r_u);
+                }
+                beta *= exp(-sigma_t * d);
+            } else if (!scatters) {
+                // Absorption tracer in a heterogeneous medium: ratio tracking, collecting
+                // the emission at every tentative collision.
+                const Spectrum T_maj = sample_T_maj(
+                    m, ray, t_end, channel, sampler,
+                    [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
+                        const Spectrum &T_seg) {
+                        add_medium_emission(mp, sigma_maj, T_seg);
+                        const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
+                        const Real pdf = T_seg[channel] * sigma_maj[channel];
+                        beta *= T_seg * sigma_n / pdf;
+                        r_u *= T_seg * sigma_maj / pdf;
+                        return !is_black(beta);
+                    });
+                const Real pdf = T_maj[channel];
+                if (!(pdf > 0) || is_black(beta)) return L;
+                beta *= T_maj / pdf;
+                r_u *= T_maj / pdf;
             } else if (!pass_through) {
                 bool scattered = false, terminated = false;
                 const Spectrum T_maj = sample_T_maj(
@@ -212,6 +250,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                     [&](const Vec3 &p, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
                         const Spectrum &T_seg) {
                         const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
+                        add_medium_emission(mp, sigma_maj, T_seg);
                         // Real or null collision, in proportion to sigma_t : sigma_n in the
                         // sampling channel. Absorption is not sampled: it weights beta.
                         if (sampler.next_1d() * sigma_maj[channel] < sigma_t[channel]) {

@@ -49,18 +49,19 @@ void AtmosphereMedium::densities(Real h, Real &rayleigh, Real &mie, Real &ozone)
 namespace {
 struct Properties {
     const Vec3 &p;
-    MediumProperties operator()(const HomogeneousMedium &m) const { return {m.sigma_a, m.sigma_s}; }
+    MediumProperties operator()(const HomogeneousMedium &m) const { return {m.sigma_a, m.sigma_s, m.Le}; }
     MediumProperties operator()(const GridMedium &m) const {
         const Vec3 q = m.world_to_grid.point(p);
         const Spectrum sigma_t = m.density.lookup(q) * m.scale;
         const Spectrum albedo = m.albedo_grid.empty() ? m.albedo : m.albedo_grid.lookup(q);
         const Spectrum sigma_s = sigma_t * albedo;
-        return {clamp_zero(sigma_t - sigma_s), sigma_s};
+        const Spectrum Le = m.Le_grid.empty() ? m.Le_scale : m.Le_grid.lookup(q) * m.Le_scale;
+        return {clamp_zero(sigma_t - sigma_s), sigma_s, Le};
     }
     MediumProperties operator()(const AtmosphereMedium &m) const {
         Real r, mie, o;
         m.densities(m.altitude(p), r, mie, o);
-        return {m.mie_sigma_a * mie + m.ozone_sigma_a * o, m.rayleigh_sigma_s * r + m.mie_sigma_s * mie};
+        return {m.mie_sigma_a * mie + m.ozone_sigma_a * o, m.rayleigh_sigma_s * r + m.mie_sigma_s * mie, Spectrum(0.0)};
     }
 };
 
@@ -131,6 +132,12 @@ struct ListPieces {
     }
 };
 }  // namespace
+
+bool is_emissive(const Medium &m) {
+    if (const auto *h = std::get_if<HomogeneousMedium>(&m)) return !is_black(h->Le) && !is_black(h->sigma_a);
+    if (const auto *g = std::get_if<GridMedium>(&m)) return !is_black(g->Le_scale);
+    return false;
+}
 
 MediumProperties medium_properties(const Medium &m, const Vec3 &p) {
     return std::visit(Properties{p}, m);

@@ -54,6 +54,8 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                     const uint64_t pixel = uint64_t(y) * cam.width + x;
                     Spectrum sum(0.0);
                     for (int s = 0; s < settings.spp; ++s) {
+                        // A pixel of many samples must not delay a cancel.
+                        if ((s & 63) == 63 && progress.cancel.load(std::memory_order_relaxed)) break;
                         Sampler sampler(settings.seed, pixel, uint64_t(s));
                         const Vec2 o = filter_offset(cam, sampler);
                         const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);

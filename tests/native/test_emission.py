@@ -1,0 +1,121 @@
+"""Emissive media against closed forms.
+
+Deep inside a large homogeneous medium that emits sigma_a Le per unit length, radiance
+reaches equilibrium: L = Le once every scattering order is simulated (the source balances
+absorption), and L = Le sigma_a / sigma_t when scattering only removes light (the
+absorption tracer). The slab case checks the exact segment integral
+Le (1 - exp(-sigma_a d)) + T L_background.
+"""
+
+import numpy as np
+import pytest
+
+import volpath
+from volpath.grids import write_vol
+from volpath.testing import render_batches
+
+import scenes as S
+
+LE = np.array([2.0, 1.0, 0.5])
+SIGMA_A = np.array([0.5, 0.3, 0.2])
+SIGMA_S = np.array([0.5, 0.7, 0.3])
+
+
+def _rgb(v):
+    return ", ".join(map(str, v))
+
+
+def _deep_medium(medium_xml):
+    # The camera at the centre of a cube of half-size 40: at least 40 mean free paths (sigma_t >= 0.5)
+    # to the boundary, where e^-20 of the background could leak in: negligible.
+    return S.scene(S.camera(res=4, fov=30, origin="0, 0, 0", target="0, 0, -1", spp=16, medium="m"),
+                   medium_xml, S.medium_cube("m", half=40.0))
+
+
+def _homogeneous():
+    return (f'<medium type="homogeneous" id="m"><rgb name="sigma_a" value="{_rgb(SIGMA_A)}"/>'
+            f'<rgb name="sigma_s" value="{_rgb(SIGMA_S)}"/><rgb name="radiance" value="{_rgb(LE)}"/></medium>')
+
+
+def _grid(tmp_path):
+    # A constant 3^3 grid: the grid code path (majorant grid, trilinear lookups, Le grid) with
+    # the homogeneous answer. sigma_t is grey here (the grid has one density).
+    write_vol(tmp_path / "d.vol", np.ones((3, 3, 3), np.float32))
+    write_vol(tmp_path / "le.vol", np.broadcast_to(LE.astype(np.float32), (3, 3, 3, 3)))
+    return (f'<medium type="heterogeneous" id="m"><float name="scale" value="1.0"/>'
+            f'<volume type="gridvolume" name="density"><string name="filename" value="{tmp_path / "d.vol"}"/>'
+            f'<transform name="to_world"><translate value="-0.5, -0.5, -0.5"/><scale value="80"/></transform></volume>'
+            f'<rgb name="albedo" value="0.5, 0.7, 0.3"/>'
+            f'<volume type="gridvolume" name="radiance"><string name="filename" value="{tmp_path / "le.vol"}"/>'
+            f'<transform name="to_world"><translate value="-0.5, -0.5, -0.5"/><scale value="80"/></transform></volume>'
+            f'</medium>')
+
+
+@pytest.mark.parametrize("tracer", ["multiple", "nee_mis", "null_scattering"])
+def test_equilibrium_radiance_is_le(tracer):
+    scene = volpath.load_string(_deep_medium(_homogeneous()))
+    mean, se = render_batches(volpath.render, scene, 4, block=4, tracer=tracer)
+    # 4 independent batches of 256 paths: 5 standard errors (of the 4-batch spread) plus 1 % of
+    # Le for the Russian roulette and depth tails, which are unbiased but heavy.
+    assert np.all(np.abs(mean[0, 0] - LE) < 5 * se[0, 0] + 0.01 * LE), (mean, se)
+    assert np.all(np.isfinite(mean))
+
+
+def test_absorption_tracer_counts_only_unscattered_emission():
+    scene = volpath.load_string(_deep_medium(_homogeneous()))
+    image = volpath.render(scene, spp=4, tracer="absorption")
+    # Closed form on every ray: exact up to float rounding.
+    assert np.allclose(image, LE * SIGMA_A / (SIGMA_A + SIGMA_S), rtol=1e-5)
+
+
+def test_grid_emission_matches_the_homogeneous_answer(tmp_path):
+    scene = volpath.load_string(_deep_medium(_grid(tmp_path)))
+    mean, se = render_batches(volpath.render, scene, 4, block=4, tracer="null_scattering")
+    assert np.all(np.abs(mean[0, 0] - LE) < 5 * se[0, 0] + 0.01 * LE), (mean, se)
+    # The absorption tracer by ratio tracking: sigma_a / sigma_t of Le (albedo 0.5, 0.7, 0.3).
+    mean, se = render_batches(volpath.render, scene, 4, block=4, tracer="absorption")
+    expected = LE * (1 - np.array([0.5, 0.7, 0.3]))
+    assert np.all(np.abs(mean[0, 0] - expected) < 5 * se[0, 0] + 1e-3), (mean, se)
+
+
+def test_emitting_slab_closed_form():
+    sa = np.array([0.3, 0.6, 1.2])
+    xml = S.scene(S.camera(res=4, fov=1, spp=4),
+                  f'<medium type="homogeneous" id="m"><rgb name="sigma_a" value="{_rgb(sa)}"/>'
+                  f'<rgb name="sigma_s" value="0, 0, 0"/><rgb name="radiance" value="{_rgb(LE)}"/></medium>',
+                  S.medium_cube("m"), S.constant_env("0.1, 0.1, 0.1"))
+    scene = volpath.load_string(xml)
+    expected = LE * (1 - np.exp(-2 * sa)) + 0.1 * np.exp(-2 * sa)
+    for tracer in volpath.TRACERS:
+        # Exact on every ray; the 1-degree field makes paths up to 1/cos(0.5 deg) = 1 + 4e-5 longer.
+        assert np.allclose(volpath.render(scene, tracer=tracer), expected, rtol=2e-4), tracer
+
+
+def test_blackbody_temperature_grid(tmp_path):
+    from volpath.blackbody import blackbody_rgb
+
+    write_vol(tmp_path / "d.vol", np.ones((2, 2, 2), np.float32))
+    write_vol(tmp_path / "t.vol", np.full((2, 2, 2), 1500.0, np.float32))
+    xml = S.scene(S.camera(res=4, fov=1, spp=4),
+                  f'<medium type="heterogeneous" id="m"><float name="scale" value="1.0"/>'
+                  f'<volume type="gridvolume" name="density"><string name="filename" value="{tmp_path / "d.vol"}"/>'
+                  f'<transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>'
+                  f'<float name="albedo" value="0"/>'
+                  f'<volume type="gridvolume" name="temperature"><string name="filename" value="{tmp_path / "t.vol"}"/>'
+                  f'<transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>'
+                  f'<float name="blackbody_scale" value="0.01"/></medium>',
+                  S.medium_cube("m"))
+    scene = volpath.load_string(xml)
+    # A blackbody slab of optical thickness 2, nothing behind it: B(T) (1 - e^-2), by ratio tracking.
+    expected = 0.01 * blackbody_rgb(1500.0) * (1 - np.exp(-2.0))
+    mean, se = render_batches(volpath.render, scene, 4, block=4, tracer="absorption")
+    assert expected[0] > 0.1 and expected[0] > 5 * expected[1] and expected[2] == 0  # red-hot
+    assert np.all(np.abs(mean[0, 0] - expected) < 5 * se[0, 0] + 1e-6), (mean, se, expected)
+
+
+def test_radiance_without_absorption_is_an_error():
+    xml = S.scene(S.camera(), '<medium type="homogeneous" id="m"><rgb name="sigma_a" value="0, 0, 0"/>'
+                  '<rgb name="sigma_s" value="1, 1, 1"/><rgb name="radiance" value="1, 1, 1"/></medium>',
+                  S.medium_cube("m"))
+    with pytest.raises(volpath.SceneError, match="'radiance' needs absorption"):
+        volpath.load_string(xml)
