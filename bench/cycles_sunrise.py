@@ -22,6 +22,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+from publish import publish  # noqa: E402  (bench/)
 TARGET = 0.02
 REF_SPP = 1024
 LADDER = (16, 64, 256)
@@ -113,10 +114,7 @@ def main():
                 f"path through the atmosphere (its error falls as t^{results['Volpath'][0][1]:.2f}: independent "
                 "sampling, with shadow rays through the low air dominating the noise). A better sky estimator "
                 "(issues #4, #12), not a faster loop, is what would close the gap.\n")
-    print(section)
-    if args.append:
-        with open(args.append, "a") as f:
-            f.write(section)
+    publish(section, args.append)
 
 
 if __name__ == "__main__":

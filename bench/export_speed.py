@@ -14,6 +14,7 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 from blender_scenes import add_camera, blank_scene  # noqa: E402
 
 from addon.export import export_scene, write_directory  # noqa: E402
+from publish import publish  # noqa: E402  (bench/)
 
 scene = blank_scene()
 # 708 x 708 quads, smooth shaded: 1,002,528 triangles; a second, flat-shaded instance.
@@ -36,7 +37,4 @@ section = f"""
 | scene | export in memory (F12) | + scene directory (XML + PLY) | target |
 |---|---|---|---|
 | {triangles / 1e6:.2f} M triangles: a 1 M-triangle smooth grid and a linked duplicate | {memory:.2f} s | {written:.2f} s | < 5 s |\n"""
-print(section)
-if len(sys.argv) > 2 and sys.argv[1] == "--append":  # Blender prints to stdout too
-    with open(sys.argv[2], "a") as f:
-        f.write(section)
+publish(section, sys.argv[2] if len(sys.argv) > 2 and sys.argv[1] == "--append" else None)

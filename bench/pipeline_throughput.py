@@ -12,6 +12,7 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+from publish import publish  # noqa: E402  (bench/)
 
 
 def main():
@@ -57,10 +58,7 @@ def main():
                f"({os.cpu_count()} cores). Target: 2 Dask workers at least 1.8x one.\n\n"
                "| how | frames | wall time | frames per hour | vs 1 Dask worker |\n|---|---|---|---|---|\n"
                + "\n".join(rows) + "\n")
-    print(section)
-    if args.append:
-        with open(args.append, "a") as f:
-            f.write(section)
+    publish(section, args.append)
 
 
 if __name__ == "__main__":
