@@ -8,8 +8,11 @@ from .errors import RenderCancelled
 from .scene import TRACERS
 
 
+SAMPLERS = ("sobol", "independent")
+
+
 def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
-           out=None):
+           out=None, sampler="sobol"):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``)
@@ -24,6 +27,10 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     max_depth  path segments, as Mitsuba counts them (default: the scene's)
     out        optional float32 array (height, width, 3) to render into; each 16x16 tile
                appears in it when finished, so a progress callback can display it
+    sampler    "sobol": each random decision of a path is a dimension of an Owen-scrambled
+               Sobol sequence over the pixel's samples (stratified, lower error where the
+               integrand is smooth); "independent": PCG32 numbers. The scene file's
+               sampler type is not used (its sample_count is).
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
     Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
@@ -39,11 +46,14 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     threads = 0 if threads is None else int(threads)
     if threads < 0:
         raise ValueError(f"threads must be positive, got {threads}")
+    if sampler not in SAMPLERS:
+        raise ValueError(f"unknown sampler '{sampler}' (expected one of: {', '.join(SAMPLERS)})")
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
     image, stats = _core.render(scene.native, spp, int(seed), threads, TRACERS.index(tracer), max_depth,
-                                scene.rr_depth, scene.max_null_collisions, progress, out)
-    stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth,
+                                scene.rr_depth, scene.max_null_collisions, progress, out,
+                                sampler == "sobol")
+    stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth, sampler=sampler,
                  threads=threads or os.cpu_count(), auto=auto)
     scene.last_render = stats
     if stats["cancelled"]:

@@ -64,7 +64,8 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 }
 
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
-                    int rr_depth, int max_null_collisions, py::object progress_cb, py::object out) {
+                    int rr_depth, int max_null_collisions, py::object progress_cb, py::object out,
+                    bool low_discrepancy) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -72,6 +73,7 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     RenderSettings settings;
     settings.spp = spp;
     settings.seed = seed;
+    settings.low_discrepancy = low_discrepancy;
     settings.threads = threads;
     settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions};
 
@@ -295,7 +297,30 @@ PYBIND11_MODULE(_core, m) {
 
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
-          py::arg("progress") = py::none(), py::arg("out") = py::none());
+          py::arg("progress") = py::none(), py::arg("out") = py::none(), py::arg("low_discrepancy") = true);
+
+    // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
+    // (samples, dimensions) from next_1d, for the sampler's own tests.
+    m.def("sampler_values", [](uint64_t seed, uint64_t pixel, int samples, int dimensions, bool low_discrepancy,
+                               bool two_d) {
+        if (samples < 1 || dimensions < 1) throw std::invalid_argument("samples and dimensions must be positive");
+        std::vector<py::ssize_t> shape{samples, dimensions};
+        if (two_d) shape.push_back(2);
+        py::array_t<double> out(shape);
+        double *o = out.mutable_data();
+        for (int i = 0; i < samples; ++i) {
+            Sampler sampler(seed, pixel, uint64_t(i), low_discrepancy);
+            for (int d = 0; d < dimensions; ++d) {
+                if (two_d) {
+                    const Vec2 u = sampler.next_2d();
+                    *o++ = u.x, *o++ = u.y;
+                } else {
+                    *o++ = sampler.next_1d();
+                }
+            }
+        }
+        return out;
+    });
 
     // Sampler access for the statistical tests (chi-square against the pdfs).
     m.def("phase_sample", [](double g, const DoubleArray &u) {

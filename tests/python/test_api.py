@@ -95,17 +95,25 @@ def test_cli_render_and_info(tmp_path):
 
 
 def test_ctrl_c_stops_the_cli_within_a_second(tmp_path):
+    import select
     import signal
 
     (tmp_path / "slow.xml").write_text(S.scene(S.camera(res=256, spp=100000), S.homogeneous("m", "5", "0.99"),
                                                S.medium_sphere("m"), S.constant_env()))
     proc = subprocess.Popen([sys.executable, "-m", "volpath", "render", str(tmp_path / "slow.xml"), "-o",
-                             str(tmp_path / "o.exr"), "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(2.0)  # loaded and rendering
-    assert proc.poll() is None
+                             str(tmp_path / "o.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    # Wait until rendering: the progress bar has appeared (a loaded CI machine may take
+    # seconds just to import).
+    seen = b""
+    deadline = time.time() + 60
+    while b"%" not in seen and time.time() < deadline and proc.poll() is None:
+        if select.select([proc.stderr], [], [], 0.1)[0]:
+            seen += os.read(proc.stderr.fileno(), 4096)
+    assert b"%" in seen and proc.poll() is None, seen
+    time.sleep(0.3)
     sent = time.perf_counter()
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=10)
     assert time.perf_counter() - sent < 1.0
-    assert proc.returncode == 130 and "interrupted" in err
+    assert proc.returncode == 130 and b"interrupted" in err
     assert not (tmp_path / "o.exr").exists()

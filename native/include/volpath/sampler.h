@@ -1,5 +1,6 @@
-// Random numbers: PCG32 (O'Neill 2014) seeded by hashing (seed, pixel, sample index),
-// so every pixel sample replays the same numbers on any thread, in any order.
+// Random numbers: PCG32 (O'Neill 2014) or an Owen-scrambled Sobol sequence, seeded by
+// hashing (seed, pixel, sample index), so every pixel sample replays the same numbers on
+// any thread, in any order.
 #pragma once
 
 #include "math.h"
@@ -16,14 +17,64 @@ inline uint64_t mix64(uint64_t x) {
     return x;
 }
 
+inline uint32_t reverse_bits(uint32_t x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+// The Laine-Karras permutation: on bit-reversed values it flips each bit depending only on
+// the bits above it, i.e. a nested uniform (Owen) scramble of the base-2 digits (Burley
+// 2020, "Practical Hash-based Owen Scrambling").
+inline uint32_t laine_karras(uint32_t x, uint32_t seed) {
+    x += seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+inline uint32_t owen_scramble(uint32_t x, uint32_t seed) { return reverse_bits(laine_karras(reverse_bits(x), seed)); }
+
+// The second dimension of the Sobol sequence (direction numbers v_k = v_(k-1) ^ (v_(k-1) >> 1),
+// v_0 = 2^31), which with van der Corput (bit reversal) makes a (0, 2)-sequence. Linear
+// over GF(2) in the index bits, so four byte tables give it in four lookups.
+struct Sobol1Tables {
+    uint32_t t[4][256];
+    Sobol1Tables() {
+        uint32_t v[32];
+        v[0] = 1u << 31;
+        for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        for (int b = 0; b < 4; ++b)
+            for (uint32_t i = 0; i < 256; ++i) {
+                uint32_t r = 0;
+                for (int k = 0; k < 8; ++k)
+                    if (i >> k & 1) r ^= v[8 * b + k];
+                t[b][i] = r;
+            }
+    }
+};
+inline uint32_t sobol_1(uint32_t i) {
+    static const Sobol1Tables tables;
+    return tables.t[0][i & 255] ^ tables.t[1][(i >> 8) & 255] ^ tables.t[2][(i >> 16) & 255] ^ tables.t[3][i >> 24];
+}
+
+// A pixel sample's numbers. Independent (PCG32) or low-discrepancy: every next_1d/next_2d
+// call is its own dimension, drawn from a padded, shuffled and Owen-scrambled Sobol
+// (0, 2)-sequence over the pixel's sample indices (Burley 2020), so that e.g. the camera
+// offsets, the channel choice and the first free flight are stratified across a pixel's
+// samples. Both depend only on (seed, pixel, sample index): any thread, any order.
 class Sampler {
 public:
-    Sampler(uint64_t seed, uint64_t pixel, uint64_t sample_index) {
-        const uint64_t key = mix64(seed * 0x9e3779b97f4a7c15ULL ^ mix64(pixel + 0x632be59bd9b4e019ULL));
-        inc_ = (mix64(key ^ 0xda942042e4dd58b5ULL) << 1u) | 1u;
+    Sampler(uint64_t seed, uint64_t pixel, uint64_t sample_index, bool low_discrepancy = false)
+        : ld_(low_discrepancy), index_(uint32_t(sample_index)), reversed_index_(reverse_bits(index_)) {
+        key_ = mix64(seed * 0x9e3779b97f4a7c15ULL ^ mix64(pixel + 0x632be59bd9b4e019ULL));
+        inc_ = (mix64(key_ ^ 0xda942042e4dd58b5ULL) << 1u) | 1u;
         state_ = 0;
         next_u32();
-        state_ += mix64(key + sample_index * 0xd1342543de82ef95ULL);
+        state_ += mix64(key_ + sample_index * 0xd1342543de82ef95ULL);
         next_u32();
     }
     uint32_t next_u32() {
@@ -34,18 +85,43 @@ public:
         return (xorshifted >> rot) | (xorshifted << ((32u - rot) & 31u));
     }
     // Uniform in [0, 1) with 32 bits of resolution.
-    Real next_1d() { return next_u32() * 0x1p-32; }
-    // An independent stream derived from this one (for a second branch of a path).
-    Sampler split() {
-        const uint64_t a = next_u32(), b = next_u32();
-        return Sampler((a << 32) | b, 0x5eed, next_u32());
+    // Each dimension shuffles the sample index by an Owen scramble of its own (so that
+    // dimensions are not correlated), then Owen-scrambles the Sobol point. With vdC =
+    // reverse_bits, vdC(owen(i)) = laine_karras(reverse_bits(i)), which saves two reversals.
+    Real next_1d() {
+        if (!ld_ || dimension_ >= kLowDiscrepancyDimensions) return next_u32() * 0x1p-32;
+        const uint64_t h = dimension_hash();
+        return owen_scramble(laine_karras(reversed_index_, uint32_t(h)), uint32_t(h >> 32)) * 0x1p-32;
     }
     Vec2 next_2d() {
-        const Real a = next_1d();
-        return {a, next_1d()};
+        if (!ld_ || dimension_ >= kLowDiscrepancyDimensions) {
+            const Real a = next_1d();
+            return {a, next_1d()};
+        }
+        const uint64_t h = dimension_hash();
+        const uint32_t x = laine_karras(reversed_index_, uint32_t(h));  // vdC of the shuffled index
+        const uint32_t i = reverse_bits(x);                             // the shuffled index
+        return {owen_scramble(x, uint32_t(h >> 32)) * 0x1p-32,
+                owen_scramble(sobol_1(i), uint32_t((h * 0x9e3779b97f4a7c15ULL) >> 32)) * 0x1p-32};
+    }
+    // An independent stream derived from this one (for a second branch of a path); with
+    // low discrepancy, the same sample index in a fresh set of dimensions.
+    Sampler split() {
+        const uint64_t a = next_u32(), b = next_u32();
+        return Sampler((a << 32) | b, key_ ^ 0x5eed, index_, ld_);
     }
 
+    // Beyond the first decisions of a path (camera, channel, the first few events) the
+    // stratification is lost to diverging path lengths anyway, and hashing costs ~30 %
+    // in long random walks: later dimensions are independent numbers.
+    static constexpr uint64_t kLowDiscrepancyDimensions = 24;
+
 private:
+    uint64_t dimension_hash() { return mix64(key_ + ++dimension_ * 0x9e3779b97f4a7c15ULL); }
+
+    bool ld_ = false;
+    uint32_t index_ = 0, reversed_index_ = 0;
+    uint64_t key_ = 0, dimension_ = 0;
     uint64_t state_ = 0, inc_ = 1;
 };
 
