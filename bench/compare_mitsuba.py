@@ -1,12 +1,13 @@
-"""Time to equal error: Volpath against Mitsuba 3 on the bench scenes, in one run.
+"""Time to equal error: Volpath against Mitsuba 3 and Cycles 5.0 on the bench scenes, in one run.
 
 For each scene: a high-spp Volpath reference; then each renderer renders at a ladder of
 sample counts (2 threads, the second of two renders timed, so Mitsuba's LLVM kernels are
-compiled beforehand) and its RMSE against the reference is fitted as RMSE = a * t^b on
-log-log axes. The target error is what the fastest Mitsuba variant reaches at
---target-spp; the table gives the time each renderer needs for it, and the ratio.
-The highest-spp Mitsuba image also checks that the two renderers agree: the part of its
-error that noise does not explain is reported as bias.
+compiled beforehand, Cycles' scene synchronised) and its RMSE against the reference is
+fitted as RMSE = a * t^b on log-log axes. The target error is what the fastest Mitsuba
+variant reaches at --target-spp; the table gives the time each renderer needs for it, and
+Volpath's ratio to the better peer. Cycles renders each scene's equivalent built through
+the bpy module (bench/cycles_scenes.py). Each peer's highest-spp image also checks that
+it agrees with Volpath's reference (difference of the means).
 """
 
 import argparse
@@ -110,6 +111,10 @@ def run_scene(key, args, variants):
     ref = ref.astype(np.float64)
     rows = {}
     renderers = [vp] + [Mitsuba(v, path, args.res) for v in variants]
+    if args.cycles:
+        from cycles_scenes import Cycles
+
+        renderers.append(Cycles(key, args.res, THREADS))
     for r in renderers:
         pts = []
         for spp in args.ladder:
@@ -117,7 +122,7 @@ def run_scene(key, args, variants):
             pts.append((sec, rmse(img, ref), spp, img))
         rows[r.name] = pts
     # Target: the fastest Mitsuba variant's error at target_spp (or Volpath's own if no peer).
-    peers = [n for n in rows if n != "volpath"]
+    peers = [n for n in rows if n.startswith("mitsuba")]
     target = None
     if peers:
         at = {n: next(p for p in rows[n] if p[2] == args.target_spp) for n in peers}
@@ -152,17 +157,18 @@ def machine():
 
 def markdown(results, args, variants):
     date = datetime.date.today().isoformat()
-    lines = [f"## Volpath vs Mitsuba 3 — {date}", "",
+    peers = [f"mitsuba {v}" for v in variants] + (["cycles"] if args.cycles else [])
+    lines = [f"## Volpath vs Mitsuba 3 and Cycles 5.0 — {date}", "",
              f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
              f"spp shown. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
              "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) + ".",
-             f"Mitsuba variants: {', '.join(variants) or 'none available'}.", "",
+             f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.", "",
              "| scene | ref spp | target RMSE (rel.) | Volpath s | " +
-             " | ".join(f"{v} s" for v in variants) + " | Volpath / best Mitsuba | slopes (V; M) | mean diff vs Mitsuba |",
-             "|---|---|---|---|" + "---|" * len(variants) + "---|---|---|"]
+             " | ".join(f"{v} s" for v in peers) + " | Volpath / best peer | slopes (V; peers) | mean diff vs peers |",
+             "|---|---|---|---|" + "---|" * len(peers) + "---|---|---|"]
     for key, r in results.items():
         rv = r["renderers"]["volpath"]
-        mts = [r["renderers"].get(f"mitsuba {v}") for v in variants]
+        mts = [r["renderers"].get(v) for v in peers]
         best = min((m["time"] for m in mts if m), default=None)
         ratio = f"**{rv['time'] / best:.2f}×**" if best else "—"
         slopes = f"{rv['slope']:.2f}; " + ", ".join(f"{m['slope']:.2f}" for m in mts if m)
@@ -186,7 +192,14 @@ def main():
     ap.add_argument("--target-spp", type=int, default=64)
     ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
     ap.add_argument("--out", help="write the Markdown table here (replacing the Mitsuba section)")
+    ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
     args = ap.parse_args()
+    if args.cycles:
+        try:
+            import bpy  # noqa: F401
+        except ImportError:
+            print("  (Cycles unavailable: no bpy module)")
+            args.cycles = False
     if args.target_spp not in args.ladder:
         ap.error("--target-spp must be one of the --ladder values")
     subprocess.run([sys.executable, os.path.join(HERE, "make_grids.py")], check=True, capture_output=True)

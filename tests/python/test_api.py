@@ -100,8 +100,11 @@ def test_ctrl_c_stops_the_cli_within_a_second(tmp_path):
 
     (tmp_path / "slow.xml").write_text(S.scene(S.camera(res=256, spp=100000), S.homogeneous("m", "5", "0.99"),
                                                S.medium_sphere("m"), S.constant_env()))
+    # As from a terminal: SIGINT handled (a shell's background job, as CI may be, inherits
+    # it ignored, and Python then keeps it ignored).
     proc = subprocess.Popen([sys.executable, "-m", "volpath", "render", str(tmp_path / "slow.xml"), "-o",
-                             str(tmp_path / "o.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                             str(tmp_path / "o.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # Wait until rendering: the progress bar has appeared (a loaded CI machine may take
     # seconds just to import).
     seen = b""
