@@ -12,7 +12,7 @@ import sys
 
 def _native_available():
     try:
-        import volpath._core  # noqa: F401
+        import volpath._core  # noqa: F401  (the import is the check)
     except ImportError as e:
         return str(e)
     return None

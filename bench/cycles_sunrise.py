@@ -111,8 +111,9 @@ def main():
     section += (f"\nReading: Volpath needs {ratio:.1f}x Cycles' time per frame, but the two do not do the same "
                 "work: Cycles' sky is a radiance map precomputed once (with the scene sync, most of its time at "
                 "low spp), so only the fog and the surfaces are path traced, while Volpath traces every sky "
-                f"path through the atmosphere (its error falls as t^{results['Volpath'][0][1]:.2f}: independent "
-                "sampling, with shadow rays through the low air dominating the noise). A better sky estimator "
+                f"path through the atmosphere (its error falls as t^{results['Volpath'][0][1]:.2f}: long random walks "
+                "in the air, where the low-discrepancy sampler gains little, with shadow rays through the low air "
+                "dominating the noise). A better sky estimator "
                 "(issues #4, #12), not a faster loop, is what would close the gap.\n")
     publish(section, args.append)
 

@@ -1,7 +1,7 @@
 """Sunrise pipeline throughput (issue #7): frames per hour of the default sunrise, and
 Dask distributed with 2 workers against 1 (target: at least 1.8x), measured in one run.
 
-    python bench/pipeline_throughput.py [--frames 8] [--res 160x90] [--spp 8] [--append bench/RESULTS.md]
+    python bench/pipeline_throughput.py [--frames 8] [--res 320x180] [--spp 8] [--append bench/RESULTS.md]
 """
 
 import argparse
@@ -18,7 +18,7 @@ from publish import publish  # noqa: E402  (bench/)
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=8)
-    ap.add_argument("--res", default="160x90")
+    ap.add_argument("--res", default="320x180")
     ap.add_argument("--spp", type=int, default=8)
     ap.add_argument("--append")
     args = ap.parse_args()

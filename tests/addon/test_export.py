@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import volpath
-from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene, volume_material
+from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene
 from addon.export import ExportError, animation, export_scene, write_directory
 from addon.export.convert import BLENDER_TO_SCENE
 
