@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 import volpath
-from volpath.frames import pack, render_frame
+from volpath.frames import film_shape, pack, render_frame
 
 from . import video
 
@@ -59,14 +59,13 @@ def exr_path(out_dir, frame):
     return os.path.join(out_dir, "frames", f"frame_{frame:04d}.exr")
 
 
-def valid_frame(path, frame, shape=None):
-    """Whether an EXR on disk is a finished frame (resume keeps these)."""
+def valid_frame(path, frame, shape, spp):
+    """Whether an EXR on disk is this frame, finished, at this size and spp (resume keeps these)."""
     try:
         image, meta = volpath.read_exr(path, metadata=True)
     except (OSError, ValueError):
         return False
-    return (meta.get("frame") == frame and np.all(np.isfinite(image))
-            and (shape is None or image.shape == shape))
+    return meta.get("frame") == frame and meta.get("spp") == spp and image.shape == shape and np.all(np.isfinite(image))
 
 
 class Run:
@@ -104,8 +103,9 @@ class Run:
     # -- rendering ------------------------------------------------------------------------------
     def render(self):
         todo = []
+        shape = film_shape(self.animation_dir)
         for f in self.frames:
-            if self.options.resume and valid_frame(exr_path(self.out_dir, f), f):
+            if self.options.resume and valid_frame(exr_path(self.out_dir, f), f, shape, self.options.spp):
                 self.status[f] = {"status": "kept"}
             else:
                 todo.append(f)

@@ -86,6 +86,13 @@ def _read(directory, read_xml):
     return d, directory, read_animation(directory)
 
 
+def film_shape(directory):
+    """(height, width, 3): the image shape of the exported animation's frames."""
+    d, _, _ = _load(directory)
+    film = next(v for v in d["camera"].values() if isinstance(v, dict) and v.get("type") == "hdrfilm")
+    return int(film["height"]), int(film["width"]), 3
+
+
 def frame_dictionary(d, animation, entry):
     """The scene dictionary at one frame: sun directions and camera from ``entry``."""
     d = copy.copy(d)  # shallow: only the entries replaced below are copied

@@ -144,3 +144,17 @@ def test_bad_options_get_a_clear_message(tmp_path, args, message):
     r = cli("--out", tmp_path / "out", *args)
     assert r.returncode == 2
     assert message in r.stderr
+
+
+def test_resume_rerenders_frames_of_another_size_or_spp(tmp_path):
+    blend = tiny_animation(tmp_path / "tiny.blend", frames=2)
+    out = tmp_path / "out"
+    assert cli("--blend", blend, "--out", out, "--spp", 2).returncode == 0
+    r = cli("--blend", blend, "--out", out, "--spp", 2, "--resume", "--res", "32x18")
+    assert r.returncode == 0, r.stderr[-2000:]
+    summary = json.loads((out / "summary.json").read_text())["frames"]
+    assert [s["status"] for s in summary.values()] == ["rendered", "rendered"]
+    r = cli("--blend", blend, "--out", out, "--spp", 2, "--resume", "--res", "32x18")
+    summary = json.loads((out / "summary.json").read_text())["frames"]
+    assert [s["status"] for s in summary.values()] == ["kept", "kept"]
+    assert volpath.read_exr(out / "frames" / "frame_0001.exr").shape == (18, 32, 3)
