@@ -59,8 +59,7 @@ class VideoJob:
         self.frames = settings_to_frames(scene, step=s.video_step)
         options = Options(spp=s.spp, tracer=s.tracer, workers=s.video_workers, threads=s.threads,
                           scheduler=s.video_scheduler.strip(), resume=s.video_resume, fps=s.video_fps,
-                          exposure="auto", video_name=f"{bpy.path.clean_name(scene.name)}.mp4",
-                          fail_frames=[int(f) for f in os.environ.get("VOLPATH_FAIL_FRAMES", "").split(",") if f])
+                          exposure="auto", video_name=f"{bpy.path.clean_name(scene.name)}.mp4")
         self.cancel = threading.Event()
         self.done = self.total = 0
         self.started = time.monotonic()

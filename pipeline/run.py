@@ -40,7 +40,9 @@ class Options:
     fps: int = 24
     exposure: object = 0.0          # stops, or "auto" (video.auto_exposure)
     video_name: str = "sunrise.mp4"
-    fail_frames: list = field(default_factory=list)  # tests: frames that fail on purpose
+    # Tests make these frames fail on purpose, to see failures reported: VOLPATH_FAIL_FRAMES=2,5
+    fail_frames: list = field(default_factory=lambda: [
+        int(f) for f in os.environ.get("VOLPATH_FAIL_FRAMES", "").split(",") if f.strip()])
 
     def check(self):
         if self.spp < 1:

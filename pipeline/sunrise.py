@@ -121,8 +121,7 @@ def main(argv=None):
         frames = settings_to_frames(scene, args.frames, args.step)
         options = Options(spp=args.spp or scene.volpath.spp, tracer=args.tracer or scene.volpath.tracer,
                           workers=args.workers, threads=args.threads, scheduler=args.scheduler,
-                          resume=args.resume, fps=args.fps, exposure=args.exposure,
-                          fail_frames=[int(f) for f in os.environ.get("VOLPATH_FAIL_FRAMES", "").split(",") if f])
+                          resume=args.resume, fps=args.fps, exposure=args.exposure)
         options.check()
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -157,7 +156,7 @@ def render_animation(scene, frames, out, options):
     summary = run.execute()
     failed = run.failed()
     print(f"{len(frames) - len(failed)}/{len(frames)} frames in {time.monotonic() - start:.0f} s; "
-        f"video: {summary.get('video')}; summary: {run.summary_path}")
+          f"video: {summary.get('video')}; summary: {run.summary_path}")
     for f in failed:
         print(f"frame {f} failed: {run.status[f]['error']}")
     return 1 if failed else 0
