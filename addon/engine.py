@@ -26,6 +26,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             exported = export_scene(depsgraph)
             for message in exported.warnings:
                 self.report({"WARNING"}, f"Volpath: {message}")
+            for message in exported.notes:
+                self.report({"INFO"}, f"Volpath: {message}")
             vp_scene = volpath.load_dict(exported.scene, source=f"{scene.name} (frame {scene.frame_current})")
             tracer, auto = resolve_tracer(vp_scene, settings.tracer, settings.tolerance, vp_scene.max_depth)
         except (ExportError, volpath.SceneError, ValueError) as e:
