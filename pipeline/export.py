@@ -1,5 +1,6 @@
 """Blender side of the pipeline: the scene once, and per frame what moves (the suns'
-directions and the camera), as an animation directory that volpath.frames renders."""
+directions, the camera, the grids of VDB sequences), as an animation directory that
+volpath.frames renders."""
 
 import json
 import os
@@ -22,12 +23,10 @@ def export_animation(scene, frames, directory):
         exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
     finally:
         scene.frame_set(current)
-    if len(frames) > 1:
-        for name in exported.sequences:
-            exported.warnings.append(f"volume '{name}' is a VDB sequence: the pipeline renders every frame with "
-                                     f"its grid at frame {frames[0]} (F12 and animation renders follow the sequence)")
     export.write_directory(exported, directory)
     animation = {"suns": exported.suns, "frames": export.animation(scene, frames)}
+    if exported.sequences:
+        _volume_sequences(scene, exported.sequences, animation["frames"], directory)
     tmp = os.path.join(directory, ANIMATION_FILE + ".tmp")
     with open(tmp, "w", encoding="utf-8") as f:
         json.dump(animation, f, indent=1)
@@ -41,3 +40,31 @@ def prepare_run(scene, frames, out_dir, options, progress=None, cancel=None):
     animation_dir = os.path.join(out_dir, "scene")
     warnings = export_animation(scene, frames, animation_dir)
     return Run(animation_dir, out_dir, frames, options, progress=progress, cancel=cancel), warnings
+
+
+def _volume_sequences(scene, sequences, frames, directory):
+    """Per frame, the grids of every VDB sequence, written as .vol files beside the scene."""
+    import bpy
+    from volpath.grids import write_vol
+
+    export = sibling("addon.export")
+    os.makedirs(os.path.join(directory, "volumes"), exist_ok=True)
+    current = scene.frame_current
+    try:
+        for entry in frames:
+            scene.frame_set(entry["frame"])
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+            entry["volumes"] = {}
+            for key, name in sequences.items():
+                shape = export.export_volume(depsgraph, name)
+                if shape is None:
+                    raise export.ExportError(f"volume '{name}': no active voxels at frame {entry['frame']}")
+                grids = {"to_world": shape["to_world"].tolist()}
+                for grid in ("density", "radiance"):
+                    if grid in shape["interior"]:
+                        rel = f"volumes/{key}_{grid}_{entry['frame']:04d}.vol"
+                        write_vol(os.path.join(directory, rel), shape["interior"][grid]["data"])
+                        grids[grid] = {"filename": rel, "to_world": shape["interior"][grid]["to_world"].tolist()}
+                entry["volumes"][key] = grids
+    finally:
+        scene.frame_set(current)

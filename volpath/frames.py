@@ -5,7 +5,10 @@ An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
 ``animation.json``::
 
     {"suns": {"<scene key>": "<Blender object>"},
-     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4}, ...]}
+     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4,
+                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {"filename", "to_world"}}}}, ...]}
+
+(``volumes`` only for VDB sequences: their grids at that frame, as .vol files.)
 
 ``render_frame`` is what a worker runs (a local process or a Dask worker): it needs only
 this package, never Blender. The animation arrives as a directory path or, for workers on
@@ -103,6 +106,16 @@ def frame_dictionary(d, animation, entry):
             d[key] = dict(d[key], direction=np.asarray(entry["suns"][obj_name], dtype=np.float64))
     if entry.get("camera") is not None:
         d["camera"] = dict(d["camera"], to_world=np.asarray(entry["camera"], dtype=np.float64))
+    for key, grids in entry.get("volumes", {}).items():  # VDB sequences: this frame's grids
+        if key not in d:
+            raise SceneError(f"animation: volume '{key}' is not in the scene")
+        interior = dict(d[key]["interior"])
+        for grid in ("density", "radiance"):
+            interior.pop(grid, None)
+            if grid in grids:
+                interior[grid] = {"type": "gridvolume", "filename": grids[grid]["filename"],
+                                  "to_world": np.asarray(grids[grid]["to_world"], dtype=np.float64)}
+        d[key] = dict(d[key], interior=interior, to_world=np.asarray(grids["to_world"], dtype=np.float64))
     return d
 
 

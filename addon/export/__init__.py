@@ -38,7 +38,7 @@ class Report:
 class Exported:
     """``scene``: the dictionary; ``warnings``/``notes``: what the report shows;
     ``suns``: keys of the sun emitters, with the Blender objects they came from;
-    ``sequences``: names of the volume objects whose VDB file changes with the frame."""
+    ``sequences``: {key: volume object} for the VDB sequences (files change with the frame)."""
 
     def __init__(self, scene, report, suns, sequences):
         self.scene, self.warnings, self.notes = scene, report.warnings, report.notes
@@ -57,7 +57,7 @@ def export_scene(depsgraph):
          "integrator": {"type": "volpath", "max_depth": int(settings.max_depth), "rr_depth": int(settings.rr_depth),
                         "max_null_collisions": int(settings.max_null_collisions)},
          "camera": camera.export(scene, report)}
-    suns, sequences = {}, []
+    suns, sequences = {}, {}
     sun_lamps = [inst for inst in depsgraph.object_instances
                  if inst.object.type == "LIGHT" and inst.object.data.type == "SUN"]
     sky = world.export(scene, report, has_sun_lamp=bool(sun_lamps))
@@ -97,17 +97,32 @@ def export_scene(depsgraph):
                 add(name, shape)
         elif obj.type == "VOLUME":
             slot = obj.material_slots[0].material if obj.material_slots else None
-            medium = material(slot)[2] or {"sigma_a": np.full(3, 0.5), "sigma_s": np.full(3, 0.5), "g": 0.0,
-                                           "attribute": "density"}  # Blender's default volume
-            entry = volumes.export(obj, inst.matrix_world, medium, report, exterior)
+            entry = _volume_shape(obj, inst.matrix_world, material(slot)[2], settings, report, exterior)
             if entry is not None:
-                entry["interior"]["majorant_resolution"] = int(settings.majorant_resolution)
-                add(obj.name, entry)
+                k = add(obj.name, entry)
                 if obj.data.is_sequence:
-                    sequences.append(obj.original.name)
+                    sequences[k] = obj.original.name
         elif obj.type not in ("CAMERA", "EMPTY", "ARMATURE", "LIGHT_PROBE", "SPEAKER", "LATTICE"):
             report.warn(f"object '{obj.name}': {obj.type.lower()} objects are not supported (skipped)")
     return Exported(d, report, suns, sequences)
+
+
+def _volume_shape(obj, matrix_world, medium, settings, report, exterior):
+    if medium is None:  # Blender's default volume
+        medium = {"sigma_a": np.full(3, 0.5), "sigma_s": np.full(3, 0.5), "g": 0.0, "attribute": "density"}
+    entry = volumes.export(obj, matrix_world, medium, report, exterior)
+    if entry is not None:
+        entry["interior"]["majorant_resolution"] = int(settings.majorant_resolution)
+    return entry
+
+
+def export_volume(depsgraph, name):
+    """The shape of one volume object at the depsgraph's frame (a VDB sequence's frame)."""
+    obj = depsgraph.scene.objects[name].evaluated_get(depsgraph)
+    slot = obj.material_slots[0].material if obj.material_slots else None
+    report = Report()
+    return _volume_shape(obj, obj.matrix_world, materials.export(slot, report)[2], depsgraph.scene.volpath, report,
+                         None)
 
 
 def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):

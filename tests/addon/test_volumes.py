@@ -81,7 +81,7 @@ def test_vdb_sequence_follows_the_frame(blank, tmp_path):
     for frame in (1, 2):
         blank.frame_set(frame)
         exported = export_scene(depsgraph())
-        assert exported.sequences == [volume.name]
+        assert exported.sequences == {volume.name: volume.name}
         peaks.append(exported.scene[volume.name]["interior"]["density"]["data"].max())
     assert peaks[1] == pytest.approx(3 * peaks[0])
 
