@@ -4,27 +4,34 @@ import bpy
 
 
 class _VolpathPanel:
+    """A panel of scene.volpath settings: `props` are drawn in order, then `extra()`."""
+
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     COMPAT_ENGINES = {"VOLPATH"}
+    props = ()
 
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
+    def draw(self, context):
+        s = context.scene.volpath
+        self.layout.use_property_split = True
+        for name in self.props:
+            self.layout.prop(s, name)
+        self.extra(self.layout, s)
+
+    def extra(self, layout, s):
+        pass
+
 
 class VOLPATH_PT_sampling(_VolpathPanel, bpy.types.Panel):
     bl_label = "Sampling"
     bl_context = "render"
+    props = ("spp", "seed", "threads", "tracer")
 
-    def draw(self, context):
-        s = context.scene.volpath
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(s, "spp")
-        layout.prop(s, "seed")
-        layout.prop(s, "threads")
-        layout.prop(s, "tracer")
+    def extra(self, layout, s):
         row = layout.row()
         row.active = s.tracer == "auto"
         row.prop(s, "tolerance")
@@ -33,39 +40,21 @@ class VOLPATH_PT_sampling(_VolpathPanel, bpy.types.Panel):
 class VOLPATH_PT_light_paths(_VolpathPanel, bpy.types.Panel):
     bl_label = "Light Paths"
     bl_context = "render"
-
-    def draw(self, context):
-        s = context.scene.volpath
-        self.layout.use_property_split = True
-        self.layout.prop(s, "max_depth")
-        self.layout.prop(s, "rr_depth")
+    props = ("max_depth", "rr_depth")
 
 
 class VOLPATH_PT_volumes(_VolpathPanel, bpy.types.Panel):
     bl_label = "Volumes"
     bl_context = "render"
-
-    def draw(self, context):
-        s = context.scene.volpath
-        self.layout.use_property_split = True
-        self.layout.prop(s, "majorant_resolution")
-        self.layout.prop(s, "max_null_collisions")
+    props = ("majorant_resolution", "max_null_collisions")
 
 
 class VOLPATH_PT_video(_VolpathPanel, bpy.types.Panel):
     bl_label = "Animation to Video"
     bl_context = "render"
+    props = ("video_directory", "video_step", "video_fps", "video_workers", "video_resume", "video_scheduler")
 
-    def draw(self, context):
-        s = context.scene.volpath
-        layout = self.layout
-        layout.use_property_split = True
-        layout.prop(s, "video_directory")
-        layout.prop(s, "video_step")
-        layout.prop(s, "video_fps")
-        layout.prop(s, "video_workers")
-        layout.prop(s, "video_resume")
-        layout.prop(s, "video_scheduler")
+    def extra(self, layout, s):
         layout.operator("volpath.render_video", icon="RENDER_ANIMATION")
         layout.operator("volpath.open_output", icon="FILE_FOLDER")
         layout.operator("volpath.export_scene", icon="EXPORT")
@@ -78,15 +67,12 @@ class VOLPATH_PT_atmosphere(_VolpathPanel, bpy.types.Panel):
     def draw_header(self, context):
         self.layout.prop(context.scene.volpath, "use_atmosphere", text="")
 
+    props = ("atmosphere_preset", "atmosphere_pieces", "sun_irradiance")
+
     def draw(self, context):
-        s = context.scene.volpath
-        layout = self.layout
-        layout.use_property_split = True
-        layout.active = s.use_atmosphere
-        layout.label(text="A Sky Texture world renders as a planet's atmosphere", icon="INFO")
-        layout.prop(s, "atmosphere_preset")
-        layout.prop(s, "atmosphere_pieces")
-        layout.prop(s, "sun_irradiance")
+        self.layout.active = context.scene.volpath.use_atmosphere
+        self.layout.label(text="A Sky Texture world renders as a planet's atmosphere", icon="INFO")
+        super().draw(context)
 
 
 CLASSES = (VOLPATH_PT_sampling, VOLPATH_PT_light_paths, VOLPATH_PT_volumes, VOLPATH_PT_video, VOLPATH_PT_atmosphere)

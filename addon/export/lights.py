@@ -13,17 +13,12 @@ _DISK_SEGMENTS = 64
 
 def sun_direction(obj):
     """Where the sun's light travels, in scene coordinates (the lamp points along -Z)."""
-    return convert.direction(obj.matrix_world.to_3x3() @ _down())
-
-
-def _down():
-    from mathutils import Vector
-
-    return Vector((0.0, 0.0, -1.0))
+    return convert.direction(-np.array(obj.matrix_world.to_3x3())[:, 2])
 
 
 def export(obj, matrix_world, report):
-    """(key, dict) pairs for one light instance; unsupported lights are reported, not dropped silently."""
+    """The emitter (or emitting shape) of one light instance, or None; unsupported lights
+    are reported, never dropped silently."""
     light = obj.data
     color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
