@@ -4,9 +4,10 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
-# Debian packages the build needs (installed only when missing). The Python headers and
+# Debian packages the build needs (installed only when missing; OpenVDB and the Boost
+# headers it includes, for volpath._vdb). The Python headers and
 # venv come from Debian only when the Python in use lacks them.
-DEBIAN_PACKAGES := g++ make
+DEBIAN_PACKAGES := g++ make libopenvdb-dev libboost-iostreams-dev
 PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo python3-venv) \
             $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml

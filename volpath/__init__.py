@@ -10,7 +10,8 @@ from .errors import RenderCancelled, SceneError
 from .exr import read_exr, write_exr
 from .render import render
 from .scene import TRACERS, Scene, load_dict, load_file, load_string
+from .volume import VolumeGrid
 
 __version__ = "0.1.0"
-__all__ = ["RenderCancelled", "Scene", "SceneError", "TRACERS", "load_dict", "load_file", "load_string",
-           "read_exr", "render", "write_exr", "__version__"]
+__all__ = ["RenderCancelled", "Scene", "SceneError", "TRACERS", "VolumeGrid", "load_dict", "load_file",
+           "load_string", "read_exr", "render", "write_exr", "__version__"]

@@ -12,8 +12,8 @@ import numpy as np
 
 from . import _core
 from .errors import SceneError, where
-from .grids import read_vol
 from .meshes import load_mesh
+from .volume import VolumeGrid
 from .xml_reader import read_xml
 
 TRACERS = ("absorption", "single", "multiple", "nee_mis", "null_scattering")
@@ -205,6 +205,20 @@ def _describe(v):
     if isinstance(v, dict):
         return f"a {v.get('type', 'dictionary')}"
     return repr(v)
+
+
+def _constant_grid(rgb):
+    """A 1x1x1 grid of one value (one channel when grey)."""
+    value = rgb[:1] if np.all(rgb == rgb[0]) else rgb
+    return VolumeGrid.from_numpy(np.asarray(value, np.float32).reshape(1, 1, 1, -1))
+
+
+def _is_constant(grid):
+    return grid.shape[:3] == (1, 1, 1)
+
+
+def _constant_rgb(grid):
+    return np.broadcast_to(grid.numpy().reshape(-1), (3,)).astype(np.float64)
 
 
 def _to_rgb(v):
@@ -605,36 +619,28 @@ class _Builder:
                                           "albedo": np.divide(sigma_s, sigma_a + sigma_s, out=np.zeros(3), where=(sigma_a + sigma_s) > 0).tolist(),
                                           "g": g, "loc": p.loc})
         elif p.type == "heterogeneous":
-            name = "density" if p.has("density") else "sigma_t"
-            density, to_world = self.volume(p, name, 1.0)
-            albedo_v = p.raw("albedo", 0.75)
-            albedo_grid, albedo = None, np.ones(3)
-            if isinstance(self.resolve(albedo_v), dict) and _kind(self.resolve(albedo_v)) == "volume":
-                grid, albedo_to_world = self.volume(p, "albedo", 0.75)
-                if grid.shape[:3] == (1, 1, 1):
-                    albedo = np.broadcast_to(grid.reshape(-1), (3,)).astype(np.float64) if grid.shape[3] == 1 \
-                        else grid.reshape(3).astype(np.float64)
-                else:
-                    if not np.allclose(albedo_to_world, to_world):
-                        raise p.error("the albedo grid must have the same to_world and bounding box as the density grid")
-                    albedo_grid = grid
-            else:
-                albedo = p.rgb("albedo", 0.75)
-            if np.any(albedo > 1) or (albedo_grid is not None and albedo_grid.max() > 1):
+            density = self.volume(p, "density" if p.has("density") else "sigma_t", 1.0)
+            albedo_grid = self.volume(p, "albedo", 0.75)
+            albedo = np.ones(3)
+            if _is_constant(albedo_grid):
+                albedo, albedo_grid = _constant_rgb(albedo_grid), None
+            if max(albedo.max(), albedo_grid.max() if albedo_grid else 0) > 1:
                 raise p.error("'albedo' must be at most 1")
-            Le_grid, Le_scale = self.grid_emission(p, density, to_world)
-            world_to_grid = np.linalg.inv(to_world)
+            Le_grid, Le_scale = self.grid_emission(p)
             majorant_res = p.int("majorant_resolution", 8)
             if not 1 <= majorant_res <= 20:
                 raise p.error("'majorant_resolution' must be in 1..20 (1: one global majorant)")
-            index = self.native.add_medium_grid(density, albedo_grid, tuple(albedo), scale, world_to_grid, g,
-                                                majorant_res, Le_grid, tuple(Le_scale))
+            index = self.native.add_medium_grid(
+                density.native, density.world_to_grid,
+                albedo_grid=albedo_grid and albedo_grid.native,
+                albedo_world_to_grid=albedo_grid and albedo_grid.world_to_grid, albedo=tuple(albedo),
+                scale=scale, g=g, majorant_res=majorant_res, Le_grid=Le_grid and Le_grid.native,
+                Le_world_to_grid=Le_grid and Le_grid.world_to_grid, Le_scale=tuple(Le_scale))
             self.summary["media"].append({"index": index, "type": "heterogeneous",
-                                          "sigma_t_range": [float(density.min() * scale), float(density.max() * scale)],
+                                          "sigma_t_range": [density.min() * scale, density.max() * scale],
                                           "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc,
-                                          "emissive": bool(np.any(Le_scale > 0)),
-                                          "albedo": [float(albedo_grid.max())] * 3 if albedo_grid is not None
-                                          else albedo.tolist()})
+                                          "memory": density.nbytes, "emissive": bool(np.any(Le_scale > 0)),
+                                          "albedo": [albedo_grid.max()] * 3 if albedo_grid else albedo.tolist()})
         elif p.type == "atmosphere":
             index = self.atmosphere(p, scale)
         else:
@@ -643,37 +649,26 @@ class _Builder:
         self.media[id(d)] = index
         return index
 
-    def grid_emission(self, p, density, to_world):
+    def grid_emission(self, p):
         """(Le grid or None, Le scale) of a heterogeneous medium: `radiance` (an rgb or a
         grid), or blackbody radiance from a `temperature` grid (kelvin) times
-        `blackbody_scale`. Grids share the density's bounding box and resolution-free
-        placement; the medium emits sigma_a * Le."""
+        `blackbody_scale`. Each grid has its own placement; the medium emits sigma_a * Le."""
         from .blackbody import blackbody_rgb
 
         if p.has("radiance") and p.has("temperature"):
             raise p.error("give 'radiance' or 'temperature', not both")
         if p.has("temperature"):
-            grid, grid_to_world = self.volume(p, "temperature", 0.0)
-            if grid.shape[3] != 1:
+            grid = self.volume(p, "temperature", 0.0)
+            if grid.channels != 1:
                 raise p.error("'temperature' must be a one-channel grid (kelvin)")
-            if grid.shape[:3] != (1, 1, 1) and not np.allclose(grid_to_world, to_world):
-                raise p.error("the temperature grid must have the same to_world and bounding box as the density grid")
             scale = p.float("blackbody_scale", 1.0, minimum=0.0)
-            Le = blackbody_rgb(grid[..., 0]).astype(np.float32)
-            if grid.shape[:3] == (1, 1, 1):
-                return None, Le.reshape(3).astype(np.float64) * scale
-            return np.ascontiguousarray(Le), np.full(3, scale)
-        v = self.resolve(p.raw("radiance", 0.0))
-        if isinstance(v, dict) and _kind(v) == "volume":
-            grid, grid_to_world = self.volume(p, "radiance", 0.0)
-            if grid.shape[:3] != (1, 1, 1):
-                if not np.allclose(grid_to_world, to_world):
-                    raise p.error("the radiance grid must have the same to_world and bounding box as the density grid")
-                if grid.min() < 0:
-                    raise p.error("'radiance' must not be negative")
-                return grid, np.ones(3)
-            return None, np.broadcast_to(grid.reshape(-1), (3,)).astype(np.float64)
-        return None, p.rgb("radiance", 0.0)
+            if _is_constant(grid):
+                return None, blackbody_rgb(grid.max()).reshape(3) * scale
+            return grid.map(lambda t: blackbody_rgb(t[..., 0])), np.full(3, scale)
+        grid = self.volume(p, "radiance", 0.0)
+        if _is_constant(grid):
+            return None, _constant_rgb(grid)
+        return grid, np.ones(3)
 
     def atmosphere(self, p, scale):
         """The planet's air, its top-of-atmosphere boundary and (unless ground=false) the
@@ -721,49 +716,50 @@ class _Builder:
         return index
 
     def volume(self, p, name, default):
-        """A volume parameter as (grid (z,y,x,c) float32, grid-to-world 4x4)."""
-        v = p.raw(name, default)
-        v = self.resolve(v)
+        """A volume parameter as a VolumeGrid (constants as a 1x1x1 grid)."""
+        v = self.resolve(p.raw(name, default))
+        if isinstance(v, VolumeGrid):  # dictionaries only: a grid built in Python
+            return v
         if not isinstance(v, dict) or _kind(v) != "volume":
             rgb = _to_rgb(v)
             if rgb is None:
                 raise p.error(f"'{name}' must be a volume, float or rgb")
-            grid = (np.float32(rgb[0]) * np.ones((1, 1, 1, 1), np.float32)) if np.all(rgb == rgb[0]) \
-                else rgb.astype(np.float32).reshape(1, 1, 1, 3)
-            return grid, np.eye(4)
+            return _constant_grid(rgb)
         vp = self.params(v, "volume")
         if vp.type == "constvolume":
             rgb = vp.rgb("value", 1.0)
             vp.check()
-            grid = rgb.astype(np.float32).reshape(1, 1, 1, 3)
-            return grid, np.eye(4)
-        if vp.type != "gridvolume":
-            raise vp.error("unknown volume (expected 'gridvolume' or 'constvolume')")
-        if vp.has("data"):  # dictionaries only: a (z, y, x, channels) array in memory
-            data = np.asarray(vp.raw("data"), dtype=np.float32)
-            if data.ndim != 4 or data.shape[3] not in (1, 3) or data.size == 0 or not np.all(np.isfinite(data)):
-                raise vp.error("'data' must be a finite (z, y, x, 1 or 3) array")
-            to_world = vp.transform()
+            return _constant_grid(rgb)
+        if vp.type not in ("gridvolume", "vdbvolume"):
+            raise vp.error("unknown volume (expected 'gridvolume', 'vdbvolume' or 'constvolume')")
+        to_world = vp.transform()
+        if vp.type == "gridvolume" and vp.has("data"):  # dictionaries only: a (z, y, x, c) array
+            data = vp.raw("data")
             vp.check()
-            return np.ascontiguousarray(data), to_world
-        path = self.path(vp, "filename")
+            try:
+                return VolumeGrid.from_numpy(data, to_world)
+            except SceneError as e:
+                raise vp.error(f"'data': {e}") from None
         filter_type = vp.str("filter_type", "trilinear", ("trilinear", "nearest"))
         if filter_type != "trilinear":
             raise vp.error("only 'trilinear' filtering is supported")
-        to_world = vp.transform()
+        if vp.type == "vdbvolume":
+            grid = vp.str("grid", "density")
+            frame = vp.int("frame", 0) if vp.has("frame") else None
+            filename = vp.str("filename")
+            vp.check()
+            try:  # the file is looked for once the frame is in its name
+                return VolumeGrid.from_file(os.path.join(self.base_dir, filename), grid, to_world, frame)
+            except SceneError as e:
+                raise vp.error(str(e)) from None
+        path = self.path(vp, "filename")
         use_bbox = vp.bool("use_grid_bbox", self.old)
         vp.raw("raw"), vp.raw("accel")
         vp.check()
-        data, bbox = read_vol(path)
-        if use_bbox:
-            lo, hi = bbox
-            if np.any(hi <= lo):
-                raise vp.error(f"{path}: empty bounding box in the grid file")
-            box = np.eye(4)
-            box[:3, :3] = np.diag(hi - lo)
-            box[:3, 3] = lo
-            to_world = to_world @ box
-        return data, to_world
+        grid = VolumeGrid.from_file(path, to_world=to_world)
+        if not use_bbox:  # Mitsuba 3 places the grid's unit cube, not the file's box
+            grid.to_world = to_world
+        return grid
 
     # -- shapes ------------------------------------------------------------------------------
     def shape(self, d):

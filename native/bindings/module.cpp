@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
@@ -31,16 +32,54 @@ Transform transform(const py::array_t<double, py::array::c_style | py::array::fo
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
-// (z, y, x, c) float32 -> VoxelGrid, c in {1, 3}.
-VoxelGrid voxel_grid(const FloatArray &a) {
+using GridPtr = std::shared_ptr<VoxelGrid>;
+
+// (z, y, x, c) float32 -> sparse VoxelGrid, c in {1, 3}.
+GridPtr grid_from_dense(const FloatArray &a) {
     if (a.ndim() != 4 || (a.shape(3) != 1 && a.shape(3) != 3) || a.shape(0) < 1 || a.shape(1) < 1 ||
         a.shape(2) < 1)
         throw std::invalid_argument("expected a grid of shape (z, y, x, 1 or 3)");
-    VoxelGrid g;
-    g.res[0] = int(a.shape(2)), g.res[1] = int(a.shape(1)), g.res[2] = int(a.shape(0));
-    g.channels = int(a.shape(3));
-    g.data.assign(a.data(), a.data() + a.size());
+    const int res[3] = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};
+    return std::make_shared<VoxelGrid>(sparse_grid(a.data(), res, int(a.shape(3))));
+}
+
+// Bricks as OpenVDB leaves hand them over: an index per brick (bz, by, bx), -1 for an empty
+// brick, into `bricks` of shape (n, 8, 8, 8, c) laid out (z, y, x) inside.
+GridPtr grid_from_bricks(std::array<int, 3> res, const py::array_t<int32_t, py::array::c_style | py::array::forcecast> &index,
+                         const FloatArray &bricks) {
+    constexpr int B = VoxelGrid::kBrick;
+    auto g = std::make_shared<VoxelGrid>();
+    for (int a = 0; a < 3; ++a) {
+        if (res[a] < 1) throw std::invalid_argument("grid resolution must be positive");
+        g->res[a] = res[a], g->bricks[a] = (res[a] + B - 1) / B;
+    }
+    if (index.ndim() != 3 || index.shape(0) != g->bricks[2] || index.shape(1) != g->bricks[1] ||
+        index.shape(2) != g->bricks[0])
+        throw std::invalid_argument("brick index must have shape ceil(res / 8) as (z, y, x)");
+    if (bricks.ndim() != 5 || bricks.shape(1) != B || bricks.shape(2) != B || bricks.shape(3) != B ||
+        (bricks.shape(4) != 1 && bricks.shape(4) != 3))
+        throw std::invalid_argument("bricks must have shape (n, 8, 8, 8, 1 or 3)");
+    g->channels = int(bricks.shape(4));
+    const int32_t n = int32_t(bricks.shape(0));
+    g->brick_index.assign(index.data(), index.data() + index.size());
+    for (int32_t b : g->brick_index)
+        if (b < -1 || b >= n) throw std::invalid_argument("brick index out of range");
+    g->data.assign(bricks.data(), bricks.data() + bricks.size());
     return g;
+}
+
+// A read-only numpy view of a vector the grid owns (the grid stays alive with the view).
+template <typename T>
+py::array_t<T> view(const GridPtr &g, const std::vector<T> &v, std::vector<py::ssize_t> shape) {
+    py::array_t<T> a(shape, v.data(), py::cast(g));
+    py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+    return a;
+}
+
+PlacedGrid placed(const GridPtr &g, const std::optional<DoubleArray> &world_to_grid) {
+    if (!g) return {};
+    if (!world_to_grid) throw std::invalid_argument("a grid needs its world_to_grid matrix");
+    return {g, transform(*world_to_grid)};
 }
 
 std::vector<Vec3> points(const DoubleArray &a, const char *what) {
@@ -153,6 +192,35 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
 PYBIND11_MODULE(_core, m) {
     m.doc() = "Volpath native core: scene model, tracers and render loop.";
 
+    py::class_<VoxelGrid, GridPtr>(m, "VoxelGrid", "A sparse voxel grid (8^3 bricks, empty ones not stored).")
+        .def_static("from_dense", &grid_from_dense, py::arg("data"))
+        .def_static("from_bricks", &grid_from_bricks, py::arg("res"), py::arg("brick_index"), py::arg("bricks"))
+        .def_property_readonly("res", [](const VoxelGrid &g) { return std::array<int, 3>{g.res[0], g.res[1], g.res[2]}; })
+        .def_property_readonly("channels", [](const VoxelGrid &g) { return g.channels; })
+        .def_property_readonly("brick_index", [](const GridPtr &g) {
+            return view(g, g->brick_index, {g->bricks[2], g->bricks[1], g->bricks[0]});
+        })
+        .def_property_readonly("bricks", [](const GridPtr &g) {
+            constexpr int B = VoxelGrid::kBrick;
+            return view(g, g->data, {py::ssize_t(g->stored_bricks()), B, B, B, g->channels});
+        })
+        .def_property_readonly("nbytes", [](const VoxelGrid &g) {
+            return g.data.size() * sizeof(float) + g.brick_index.size() * sizeof(int32_t) + sizeof(VoxelGrid);
+        })
+        .def("dense", [](const VoxelGrid &g) {
+            FloatArray a({g.res[2], g.res[1], g.res[0], g.channels});
+            float *out = a.mutable_data();
+            for (int z = 0; z < g.res[2]; ++z)
+                for (int y = 0; y < g.res[1]; ++y)
+                    for (int x = 0; x < g.res[0]; ++x)
+                        for (int c = 0; c < g.channels; ++c) *out++ = g.voxel(x, y, z, c);
+            return a;
+        }, "The grid as a dense float32 array (z, y, x, c).")
+        .def("lookup", [](const VoxelGrid &g, Array3 p) {
+            const Spectrum v = g.lookup(vec(p));
+            return Array3{v[0], v[1], v[2]};
+        }, py::arg("p"), "Trilinear lookup at a point of the unit cube.");
+
     py::class_<Scene>(m, "Scene")
         .def(py::init<>())
         .def("add_bsdf_null", [](Scene &s) { return s.add_bsdf({NullBSDF{}, false}); })
@@ -173,24 +241,27 @@ PYBIND11_MODULE(_core, m) {
              },
              py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0, py::arg("Le") = Array3{0.0, 0.0, 0.0})
         .def("add_medium_grid",
-             [](Scene &s, const FloatArray &density, std::optional<FloatArray> albedo_grid, Array3 albedo,
-                double scale, const DoubleArray &world_to_grid, double g, int majorant_res,
-                std::optional<FloatArray> Le_grid, Array3 Le_scale) {
+             [](Scene &s, const GridPtr &density, const DoubleArray &world_to_grid, const GridPtr &albedo_grid,
+                std::optional<DoubleArray> albedo_world_to_grid, Array3 albedo, double scale, double g,
+                int majorant_res, const GridPtr &Le_grid, std::optional<DoubleArray> Le_world_to_grid,
+                Array3 Le_scale) {
+                 if (!density) throw std::invalid_argument("a grid medium needs a density grid");
                  GridMedium gm;
                  gm.majorant_res = majorant_res;
-                 gm.density = voxel_grid(density);
-                 if (albedo_grid) gm.albedo_grid = voxel_grid(*albedo_grid);
-                 if (Le_grid) gm.Le_grid = voxel_grid(*Le_grid);
+                 gm.density = placed(density, world_to_grid);
+                 gm.albedo_grid = placed(albedo_grid, albedo_world_to_grid);
+                 gm.Le_grid = placed(Le_grid, Le_world_to_grid);
                  gm.Le_scale = vec(Le_scale);
                  gm.albedo = vec(albedo);
                  gm.scale = scale;
-                 gm.world_to_grid = transform(world_to_grid);
                  gm.phase = phase(g);
                  return s.add_medium(gm);
              },
-             py::arg("density"), py::arg("albedo_grid"), py::arg("albedo"), py::arg("scale"),
-             py::arg("world_to_grid"), py::arg("g") = 0.0, py::arg("majorant_res") = 8,
-             py::arg("Le_grid") = py::none(), py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
+             py::arg("density"), py::arg("world_to_grid"), py::arg("albedo_grid") = GridPtr(),
+             py::arg("albedo_world_to_grid") = py::none(), py::arg("albedo") = Array3{1.0, 1.0, 1.0},
+             py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 8,
+             py::arg("Le_grid") = GridPtr(), py::arg("Le_world_to_grid") = py::none(),
+             py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
         .def("add_mesh",
              [](Scene &s, const DoubleArray &positions, const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                 std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,

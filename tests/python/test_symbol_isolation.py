@@ -58,10 +58,13 @@ def test_module_needs_only_manylinux_libraries():
 
 
 def test_render_inside_blenders_symbol_scope_is_identical(tmp_path):
+    """Meshes, spheres, a .vol grid and a .vdb cloud (written by Blender's OpenVDB 12)."""
+    from blender_scenes import write_vdb
     from volpath.grids import write_vol
     from volpath.meshes import write_ply
 
     write_vol(tmp_path / "g.vol", np.random.default_rng(2).uniform(0, 3, (8, 8, 8, 3)))
+    write_vdb(tmp_path / "cloud.vdb", np.random.default_rng(3).uniform(0, 4, (6, 6, 6)), voxel_size=0.1)
     p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0], [0, 0, 1]], float)
     write_ply(tmp_path / "pyramid.ply", p, [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 2, 1], [0, 3, 2]])
     xml = S.scene(S.camera(res=24, spp=4),
@@ -71,7 +74,12 @@ def test_render_inside_blenders_symbol_scope_is_identical(tmp_path):
                   '<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
                   '<string name="filename" value="g.vol"/><transform name="to_world"><translate value="-0.5"/></transform>'
                   '</volume><rgb name="albedo" value="0.9, 0.7, 0.5"/></medium>',
-                  S.medium_cube("m", 0.5), S.floor(), S.area_light_above(), S.constant_env("0.2, 0.2, 0.2"))
+                  S.medium_cube("m", 0.5),
+                  '<medium type="heterogeneous" id="cloud"><volume type="vdbvolume" name="density">'
+                  '<string name="filename" value="cloud.vdb"/><transform name="to_world"><translate x="-1.6" y="-1"/>'
+                  '</transform></volume><float name="albedo" value="0.95"/></medium>',
+                  '<shape type="cube"><bsdf type="null"/><ref name="interior" id="cloud"/><transform name="to_world"><scale value="0.5"/>'
+                  '<translate x="-1.4" y="-0.8"/></transform></shape>', S.floor(), S.area_light_above(), S.constant_env("0.2, 0.2, 0.2"))
     (tmp_path / "s.xml").write_text(xml)
     (tmp_path / "run.py").write_text(SCRIPT)
     assert bpy_module(), "the bpy wheel (requirements.txt) is missing"

@@ -81,11 +81,11 @@ def test_mutated_scenes(grid_dir, data):
         assert np.all(np.isfinite(image)) and image.min() >= 0
 
 
-def load_grid_file(grid_dir, name, raw):
+def load_grid_file(grid_dir, name, raw, volume="gridvolume"):
     """Load a scene whose medium reads the grid file `name` holding `raw`: it loads, or
     raises a SceneError that names the file."""
     (grid_dir / name).write_bytes(raw)
-    xml = S.scene(S.camera(res=2, spp=1), '<medium type="heterogeneous" id="m"><volume type="gridvolume" '
+    xml = S.scene(S.camera(res=2, spp=1), f'<medium type="heterogeneous" id="m"><volume type="{volume}" '
                   f'name="sigma_t"><string name="filename" value="{name}"/></volume></medium>', S.medium_cube("m"))
     try:
         volpath.load_string(xml, base_dir=str(grid_dir))
@@ -106,3 +106,42 @@ def test_hostile_vol_files(grid_dir, header, values):
 def test_vol_headers_checked_before_allocating(grid_dir, dims, channels, version, encoding, extra):
     load_grid_file(grid_dir, "header.vol", b"VOL" + bytes([version]) + struct.pack("<5i", encoding, *dims, channels) +
                    struct.pack("<6f", 0, 0, 0, 1, 1, 1) + b"\0" * (4 * extra))
+
+
+@pytest.fixture(scope="module")
+def vdb_bytes(tmp_path_factory):
+    """A small cloud written by Blender's OpenVDB (leaves, a tile-free tree, blosc-free)."""
+    from blender_scenes import write_vdb
+
+    d = np.zeros((20, 20, 20), np.float32)
+    d[3:17, 2:15, 4:18] = np.random.default_rng(0).uniform(0, 1, (14, 13, 14))
+    return write_vdb(tmp_path_factory.mktemp("vdb") / "c.vdb", d).read_bytes()
+
+
+@pytest.fixture
+def quick_vdb_timeout(monkeypatch):
+    """OpenVDB can loop on a hostile file until the reader's timeout: a short one here."""
+    from volpath import vdb
+
+    monkeypatch.setattr(vdb, "TIMEOUT", 2.0)
+
+
+# Each case starts a reader process (~0.1 s): a sixth of the examples of the other fuzzers.
+@settings(SETTINGS, max_examples=max(EXAMPLES // 6, 1))
+@given(data=st.data())
+def test_hostile_vdb_files(grid_dir, vdb_bytes, quick_vdb_timeout, data):
+    """Truncations, flipped bytes, overwritten sizes and spliced runs of a real file."""
+    raw = bytearray(vdb_bytes)
+    for _ in range(data.draw(st.integers(1, 3))):
+        kind = data.draw(st.sampled_from(["truncate", "flip", "int", "splice"]))
+        at = data.draw(st.integers(0, max(len(raw) - 1, 0)))
+        if kind == "truncate":
+            del raw[at:]
+        elif kind == "flip" and raw:
+            raw[at] ^= 1 << data.draw(st.integers(0, 7))
+        elif kind == "int":
+            raw[at:at + 4] = struct.pack("<i", data.draw(st.sampled_from([-1, 0, 1 << 30, -(1 << 31), 7, 4096])))
+        else:
+            b = data.draw(st.integers(at, min(len(raw), at + 64)))
+            raw[at:at] = raw[at:b]
+    load_grid_file(grid_dir, "hostile.vdb", bytes(raw), volume="vdbvolume")

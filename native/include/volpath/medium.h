@@ -2,6 +2,8 @@
 // coefficients at a point and a majorant sigma_maj >= sigma_t over ray segments.
 #pragma once
 
+#include <cstdint>
+#include <memory>
 #include <variant>
 #include <vector>
 
@@ -18,15 +20,40 @@ struct HomogeneousMedium {
     Spectrum Le{0.0};
 };
 
-// A dense voxel grid filling [0,1]^3 in its own space, x fastest, 1 or 3 channels.
+// A voxel grid filling [0,1]^3 in its own space, 1 or 3 channels, stored sparsely: the
+// grid is cut into 8^3 bricks and only bricks holding a non-zero value are kept, so
+// memory follows the active voxels, not the bounding box (an OpenVDB leaf is one brick).
 // Voxel centres sit at (i + 0.5) / res; lookups are trilinear and clamp at the border.
 struct VoxelGrid {
+    static constexpr int kLog2Brick = 3, kBrick = 1 << kLog2Brick, kBrickVoxels = kBrick * kBrick * kBrick;
     int res[3] = {0, 0, 0};
+    int bricks[3] = {0, 0, 0};       // ceil(res / 8) per axis
     int channels = 1;
-    std::vector<float> data;
+    std::vector<int32_t> brick_index;  // per brick, x fastest: its slot in `data`, or -1 (all zero)
+    std::vector<float> data;           // kBrickVoxels * channels per stored brick, x fastest inside
 
-    bool empty() const { return data.empty(); }
+    // The value of voxel (x, y, z), channel c (indices inside the grid).
+    float voxel(int x, int y, int z, int c) const {
+        const int32_t b = brick_index[(size_t(z >> kLog2Brick) * bricks[1] + (y >> kLog2Brick)) * bricks[0] +
+                                      (x >> kLog2Brick)];
+        if (b < 0) return 0.0f;
+        const int local = (((z & (kBrick - 1)) * kBrick + (y & (kBrick - 1))) * kBrick + (x & (kBrick - 1)));
+        return data[(size_t(b) * kBrickVoxels + local) * channels + c];
+    }
     Spectrum lookup(const Vec3 &p) const;
+    size_t stored_bricks() const { return data.size() / (size_t(kBrickVoxels) * channels); }
+};
+
+// A sparse grid from a dense array of res[0] * res[1] * res[2] * channels values, x fastest.
+VoxelGrid sparse_grid(const float *dense, const int res[3], int channels);
+
+// A grid with its placement: world points map into the grid's unit cube. A medium's grids
+// (density, albedo, emission) each have their own, as OpenVDB grids do.
+struct PlacedGrid {
+    std::shared_ptr<const VoxelGrid> grid;  // shared: grids are large and read-only
+    Transform world_to_grid;
+    bool empty() const { return !grid; }
+    Spectrum lookup(const Vec3 &p_world) const { return grid->lookup(world_to_grid.point(p_world)); }
 };
 
 // Local majorants: the grid's unit cube cut into res^3 cells, each holding the largest
@@ -39,15 +66,15 @@ struct MajorantGrid {
 };
 
 // sigma_t(x) = scale * density(x), sigma_s = albedo * sigma_t; the albedo is a grid or a
-// constant. Majorants come from a MajorantGrid of `majorant_res` cells per axis.
+// constant. The medium fills the density grid's box. Majorants come from a MajorantGrid of
+// `majorant_res` cells per axis over that box.
 struct GridMedium {
-    VoxelGrid density;
-    VoxelGrid albedo_grid;  // empty: use `albedo`
+    PlacedGrid density;
+    PlacedGrid albedo_grid;  // empty: use `albedo`
     Spectrum albedo{1.0};
-    VoxelGrid Le_grid;      // empty: Le = Le_scale everywhere
+    PlacedGrid Le_grid;      // empty: Le = Le_scale everywhere
     Spectrum Le_scale{0.0};
     Real scale = 1;
-    Transform world_to_grid;
     int majorant_res = 8;  // measured: 8 beats 16 and a global majorant (3x on a sparse cloud)
     MajorantGrid majorants;
     PhaseFunction phase;

@@ -23,14 +23,40 @@ Spectrum VoxelGrid::lookup(const Vec3 &p) const {
         const Real weight = ((corner & 1) ? w[0] : 1 - w[0]) * ((corner & 2) ? w[1] : 1 - w[1]) *
                             ((corner & 4) ? w[2] : 1 - w[2]);
         if (weight == 0) continue;
-        const size_t base = ((size_t(z) * res[1] + y) * res[0] + x) * channels;
         if (channels == 1) {
-            out += Spectrum(data[base] * weight);
+            out += Spectrum(voxel(x, y, z, 0) * weight);
         } else {
-            out += Spectrum(data[base], data[base + 1], data[base + 2]) * weight;
+            out += Spectrum(voxel(x, y, z, 0), voxel(x, y, z, 1), voxel(x, y, z, 2)) * weight;
         }
     }
     return out;
+}
+
+VoxelGrid sparse_grid(const float *dense, const int res[3], int channels) {
+    constexpr int B = VoxelGrid::kBrick;
+    VoxelGrid g;
+    g.channels = channels;
+    for (int a = 0; a < 3; ++a) g.res[a] = res[a], g.bricks[a] = (res[a] + B - 1) / B;
+    g.brick_index.assign(size_t(g.bricks[0]) * g.bricks[1] * g.bricks[2], -1);
+    std::vector<float> brick(size_t(VoxelGrid::kBrickVoxels) * channels);
+    for (int bz = 0; bz < g.bricks[2]; ++bz)
+        for (int by = 0; by < g.bricks[1]; ++by)
+            for (int bx = 0; bx < g.bricks[0]; ++bx) {
+                std::fill(brick.begin(), brick.end(), 0.0f);
+                bool any = false;
+                for (int z = bz * B; z < std::min(res[2], bz * B + B); ++z)
+                    for (int y = by * B; y < std::min(res[1], by * B + B); ++y)
+                        for (int x = bx * B; x < std::min(res[0], bx * B + B); ++x)
+                            for (int c = 0; c < channels; ++c) {
+                                const float v = dense[((size_t(z) * res[1] + y) * res[0] + x) * channels + c];
+                                brick[(((z % B) * B + y % B) * B + x % B) * channels + c] = v;
+                                any |= v != 0.0f;
+                            }
+                if (!any) continue;
+                g.brick_index[(size_t(bz) * g.bricks[1] + by) * g.bricks[0] + bx] = int32_t(g.stored_bricks());
+                g.data.insert(g.data.end(), brick.begin(), brick.end());
+            }
+    return g;
 }
 
 Real AtmosphereMedium::ozone_profile(Real h) const {
@@ -51,11 +77,10 @@ struct Properties {
     const Vec3 &p;
     MediumProperties operator()(const HomogeneousMedium &m) const { return {m.sigma_a, m.sigma_s, m.Le}; }
     MediumProperties operator()(const GridMedium &m) const {
-        const Vec3 q = m.world_to_grid.point(p);
-        const Spectrum sigma_t = m.density.lookup(q) * m.scale;
-        const Spectrum albedo = m.albedo_grid.empty() ? m.albedo : m.albedo_grid.lookup(q);
+        const Spectrum sigma_t = m.density.lookup(p) * m.scale;
+        const Spectrum albedo = m.albedo_grid.empty() ? m.albedo : m.albedo_grid.lookup(p);
         const Spectrum sigma_s = sigma_t * albedo;
-        const Spectrum Le = m.Le_grid.empty() ? m.Le_scale : m.Le_grid.lookup(q) * m.Le_scale;
+        const Spectrum Le = m.Le_grid.empty() ? m.Le_scale : m.Le_grid.lookup(p) * m.Le_scale;
         return {clamp_zero(sigma_t - sigma_s), sigma_s, Le};
     }
     MediumProperties operator()(const AtmosphereMedium &m) const {
@@ -81,7 +106,8 @@ struct Phase {
 // Clips the ray to the unit cube of a grid (slab test on the affine image of the ray,
 // whose parameter t stays the world-space distance).
 bool clip_to_grid(const GridMedium &m, const Ray &ray, Real t_max, Real &t0, Real &t1) {
-    const Vec3 o = m.world_to_grid.point(ray.o), d = m.world_to_grid.vector(ray.d);
+    const Transform &to_grid = m.density.world_to_grid;
+    const Vec3 o = to_grid.point(ray.o), d = to_grid.vector(ray.d);
     t0 = ray.t_min, t1 = t_max;
     for (int a = 0; a < 3; ++a) {
         if (d[a] == 0) {
@@ -154,24 +180,29 @@ void voxel_range(Real lo, Real hi, int res, int &i0, int &i1) {
     i1 = std::clamp(int(std::floor(hi * res - 0.5)) + 1, 0, res - 1);
 }
 
+// Only stored bricks are visited: empty ones hold zeros, which bound nothing.
 MajorantGrid build_majorants(const VoxelGrid &g, int res) {
+    constexpr int L = VoxelGrid::kLog2Brick;
     MajorantGrid mg;
     mg.res = res;
     mg.cell_max.assign(size_t(res) * res * res, Spectrum(0.0));
     for (int cz = 0; cz < res; ++cz)
         for (int cy = 0; cy < res; ++cy)
             for (int cx = 0; cx < res; ++cx) {
-                int x0, x1, y0, y1, z0, z1;
-                voxel_range(Real(cx) / res, Real(cx + 1) / res, g.res[0], x0, x1);
-                voxel_range(Real(cy) / res, Real(cy + 1) / res, g.res[1], y0, y1);
-                voxel_range(Real(cz) / res, Real(cz + 1) / res, g.res[2], z0, z1);
+                int lo[3], hi[3];
+                const int cell[3] = {cx, cy, cz};
+                for (int a = 0; a < 3; ++a) voxel_range(Real(cell[a]) / res, Real(cell[a] + 1) / res, g.res[a], lo[a], hi[a]);
                 Spectrum m(0.0);
-                for (int z = z0; z <= z1; ++z)
-                    for (int y = y0; y <= y1; ++y)
-                        for (int x = x0; x <= x1; ++x) {
-                            const size_t base = ((size_t(z) * g.res[1] + y) * g.res[0] + x) * g.channels;
-                            m = max(m, g.channels == 1 ? Spectrum(g.data[base])
-                                                       : Spectrum(g.data[base], g.data[base + 1], g.data[base + 2]));
+                for (int bz = lo[2] >> L; bz <= hi[2] >> L; ++bz)
+                    for (int by = lo[1] >> L; by <= hi[1] >> L; ++by)
+                        for (int bx = lo[0] >> L; bx <= hi[0] >> L; ++bx) {
+                            if (g.brick_index[(size_t(bz) * g.bricks[1] + by) * g.bricks[0] + bx] < 0) continue;
+                            for (int z = std::max(lo[2], bz << L); z <= std::min(hi[2], ((bz + 1) << L) - 1); ++z)
+                                for (int y = std::max(lo[1], by << L); y <= std::min(hi[1], ((by + 1) << L) - 1); ++y)
+                                    for (int x = std::max(lo[0], bx << L); x <= std::min(hi[0], ((bx + 1) << L) - 1); ++x)
+                                        m = max(m, g.channels == 1 ? Spectrum(g.voxel(x, y, z, 0))
+                                                                   : Spectrum(g.voxel(x, y, z, 0), g.voxel(x, y, z, 1),
+                                                                              g.voxel(x, y, z, 2)));
                         }
                 mg.cell_max[(size_t(cz) * res + cy) * res + cx] = m;
             }
@@ -182,7 +213,7 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
 void prepare_medium(Medium &m) {
     if (auto *grid = std::get_if<GridMedium>(&m)) {
         const int res = std::clamp(grid->majorant_res, 1, kMaxMajorantGridRes);
-        grid->majorants = build_majorants(grid->density, res);
+        grid->majorants = build_majorants(*grid->density.grid, res);
     }
 }
 
@@ -218,7 +249,8 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
         if (!clip_to_grid(*g, ray, t_max, t0, t1)) return;
         grid_ = g;
         const int res = g->majorants.res;
-        const Vec3 o = g->world_to_grid.point(ray.o), d = g->world_to_grid.vector(ray.d);
+        const Transform &to_grid = g->density.world_to_grid;
+        const Vec3 o = to_grid.point(ray.o), d = to_grid.vector(ray.d);
         const Vec3 p0 = o + d * t0;
         for (int a = 0; a < 3; ++a) {
             cell_[a] = std::clamp(int(p0[a] * res), 0, res - 1);

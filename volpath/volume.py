@@ -1,0 +1,143 @@
+"""Voxel grids placed in the world: ``volpath.VolumeGrid``.
+
+A grid fills the unit cube of its own space, voxel ``i`` centred at ``(i + 0.5) / res``,
+and ``to_world`` (4x4) maps that cube into the scene. The voxels live in native memory as
+8^3 bricks, only the non-zero ones stored, so a sparse cloud costs what its active voxels
+cost. Grids come from numpy arrays, Mitsuba ``.vol`` files and OpenVDB ``.vdb`` files.
+
+    grid = volpath.VolumeGrid.from_file("cloud.vdb", grid="density")
+    grid = volpath.VolumeGrid.from_numpy(array_zyx, to_world)
+    scene = volpath.load_dict({..., "density": grid, ...})
+"""
+
+import os
+import re
+
+import numpy as np
+
+from . import _core, vdb
+from .errors import SceneError
+from .grids import read_vol
+
+
+class VolumeGrid:
+    """A sparse voxel grid (1 or 3 channels, float32) and its placement ``to_world``."""
+
+    def __init__(self, native, to_world=None, source=""):
+        self.native = native
+        self.to_world = np.eye(4) if to_world is None else np.array(to_world, dtype=np.float64).reshape(4, 4)
+        self.source = source  # "file, grid 'name'" for messages
+
+    @classmethod
+    def from_numpy(cls, data, to_world=None):
+        """From a (z, y, x) or (z, y, x, 1 or 3) array; x is the fastest axis."""
+        data = np.asarray(data, dtype=np.float32)
+        if data.ndim == 3:
+            data = data[..., None]
+        if data.ndim != 4 or data.shape[3] not in (1, 3) or data.size == 0:
+            raise SceneError(f"a grid must have shape (z, y, x) or (z, y, x, 1 or 3), got {data.shape}")
+        _check_values(data, "the array")
+        return cls(_core.VoxelGrid.from_dense(np.ascontiguousarray(data)), to_world)
+
+    @classmethod
+    def from_file(cls, path, grid="density", to_world=None, frame=None):
+        """From a ``.vdb`` file (the grid named `grid`, placed by the file's transform, then
+        by `to_world`) or a Mitsuba ``.vol`` file (its bounding box, then `to_world`). A run
+        of ``#`` in the file name is replaced by `frame`, zero-padded (Blender's sequences)."""
+        path = sequence_path(str(path), frame)
+        user = np.eye(4) if to_world is None else np.asarray(to_world, dtype=np.float64)
+        if not os.path.exists(path):
+            raise SceneError(f"{path}: volume file not found")
+        if path.lower().endswith(".vdb"):
+            return _read_vdb(path, grid, user)
+        data, (lo, hi) = read_vol(path)
+        if np.any(hi <= lo):
+            raise SceneError(f"{path}: empty bounding box in the grid file")
+        box = np.eye(4)
+        box[:3, :3], box[:3, 3] = np.diag(hi - lo), lo
+        return cls(_core.VoxelGrid.from_dense(data), user @ box, path)
+
+    @property
+    def shape(self):
+        """(z, y, x, channels), as ``numpy()`` returns."""
+        x, y, z = self.native.res
+        return (z, y, x, self.native.channels)
+
+    @property
+    def channels(self):
+        return self.native.channels
+
+    @property
+    def nbytes(self):
+        """Resident bytes of the voxels (stored bricks and the brick index)."""
+        return self.native.nbytes
+
+    @property
+    def dense_nbytes(self):
+        """Bytes the same grid would take as a dense float32 array."""
+        return int(np.prod(self.shape)) * 4
+
+    def numpy(self):
+        """The grid as a dense float32 array (z, y, x, channels)."""
+        return self.native.dense()
+
+    def max(self):
+        bricks = self.native.bricks
+        return float(bricks.max()) if bricks.size else 0.0
+
+    def min(self):
+        """The smallest value (0 where bricks are empty, or pad a side that is not a multiple of 8)."""
+        bricks = self.native.bricks
+        empty = bool(np.any(self.native.brick_index < 0))
+        return min(float(bricks.min()) if bricks.size else 0.0, 0.0 if empty else np.inf)
+
+    def map(self, f):
+        """A grid of f(values) with the same placement; f maps a (..., channels) array to
+        (..., 1 or 3) and must map 0 to 0 (unstored voxels stay 0)."""
+        bricks = self.native.bricks
+        if np.any(np.asarray(f(np.zeros((1, self.channels), np.float32))) != 0):
+            raise ValueError("map: f(0) must be 0")
+        out = np.ascontiguousarray(f(bricks), dtype=np.float32)
+        return VolumeGrid(_core.VoxelGrid.from_bricks(self.native.res, self.native.brick_index, out),
+                          self.to_world, self.source)
+
+    @property
+    def world_to_grid(self):
+        return np.linalg.inv(self.to_world)
+
+    def __repr__(self):
+        z, y, x, c = self.shape
+        return (f"VolumeGrid({x}x{y}x{z}, {c} channel{'s' * (c > 1)}, {self.nbytes / 2**20:.1f} MiB "
+                f"of {self.dense_nbytes / 2**20:.1f} MiB dense{', ' + self.source if self.source else ''})")
+
+
+def sequence_path(path, frame):
+    """`path` with its run of '#' replaced by `frame` zero-padded to the run's length."""
+    run = re.search(r"#+", os.path.basename(path))
+    if run is None:
+        if frame is not None:
+            raise SceneError(f"{path}: a 'frame' needs a file name with '#' where the frame number goes")
+        return path
+    if frame is None:
+        raise SceneError(f"{path}: the file name has '#' but no 'frame' was given")
+    head = os.path.dirname(path)
+    name = os.path.basename(path)
+    return os.path.join(head, name[:run.start()] + f"{int(frame):0{len(run.group())}d}" + name[run.end():])
+
+
+def _check_values(values, what):
+    if not np.all(np.isfinite(values)):
+        raise SceneError(f"{what} contains NaN or infinite values")
+    if values.size and values.min() < 0:
+        raise SceneError(f"{what} contains negative values (densities, albedos and temperatures must be >= 0)")
+
+
+def _read_vdb(path, name, user_to_world):
+    d = vdb.read(path, name)
+    what = f"{path}: grid '{name}'"
+    _check_values(d["bricks"], what)
+    # Unit cube -> VDB index space (voxel i centred at index i) -> the file's world -> the scene.
+    unit_to_index = np.eye(4)
+    unit_to_index[:3, :3], unit_to_index[:3, 3] = np.diag(d["res"].astype(np.float64)), d["origin"] - 0.5
+    native = _core.VoxelGrid.from_bricks(tuple(int(r) for r in d["res"]), d["brick_index"], d["bricks"])
+    return VolumeGrid(native, user_to_world @ d["index_to_world"] @ unit_to_index, what)
