@@ -29,7 +29,8 @@ class VolpathSettings(bpy.types.PropertyGroup):
                           default=5, min=1, soft_max=64)
     # Volumes
     majorant_resolution: IntProperty(name="Majorant Grid", description="Cells per axis of the local majorant grid "
-                                     "(1: one global majorant)", default=8, min=1, max=20)
+                                     "(0: automatic, about one per 10 voxels; 1: one global majorant)",
+                                     default=0, min=0, max=64)
     max_null_collisions: IntProperty(name="Max Null Collisions", description="Safety cap on null collisions per segment",
                                      default=1000, min=1, soft_max=100000)
     # Atmosphere (a world with a Sky Texture)

@@ -627,9 +627,9 @@ class _Builder:
             if max(albedo.max(), albedo_grid.max() if albedo_grid else 0) > 1:
                 raise p.error("'albedo' must be at most 1")
             Le_grid, Le_scale = self.grid_emission(p)
-            majorant_res = p.int("majorant_resolution", 8)
-            if not 1 <= majorant_res <= 20:
-                raise p.error("'majorant_resolution' must be in 1..20 (1: one global majorant)")
+            majorant_res = p.int("majorant_resolution", 0)
+            if not 0 <= majorant_res <= 64:
+                raise p.error("'majorant_resolution' must be in 0..64 (0: automatic, 1: one global majorant)")
             index = self.native.add_medium_grid(
                 density.native, density.world_to_grid,
                 albedo_grid=albedo_grid and albedo_grid.native,

@@ -14,6 +14,7 @@ import numpy as np
 from .grids import write_vol
 from .meshes import write_ply
 from .scene import _kind
+from .volume import VolumeGrid
 
 
 def write_scene(d, directory, filename="scene.xml"):
@@ -55,6 +56,8 @@ class _Writer:
     def entry(self, key, value, depth, top=False):
         pad = "    " * depth
         name = f" name={quoteattr(key)}"
+        if isinstance(value, VolumeGrid):  # a dense .vol placed by its to_world
+            value = {"type": "gridvolume", "data": value.numpy(), "to_world": value.to_world}
         if isinstance(value, dict):
             if value.get("type") == "ref":
                 return [f'{pad}<ref{name if not top else ""} id={quoteattr(value["id"])}/>']

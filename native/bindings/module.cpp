@@ -259,7 +259,7 @@ PYBIND11_MODULE(_core, m) {
              },
              py::arg("density"), py::arg("world_to_grid"), py::arg("albedo_grid") = GridPtr(),
              py::arg("albedo_world_to_grid") = py::none(), py::arg("albedo") = Array3{1.0, 1.0, 1.0},
-             py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 8,
+             py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 0,
              py::arg("Le_grid") = GridPtr(), py::arg("Le_world_to_grid") = py::none(),
              py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
         .def("add_mesh",

@@ -22,7 +22,7 @@ def grid_scene(tmp_path, data, majorant_res=16, to_world='<translate value="-0.5
 
 @settings(max_examples=60, deadline=None)
 @given(shape=st.tuples(st.integers(1, 20), st.integers(1, 20), st.integers(1, 20)), channels=st.sampled_from([1, 3]),
-       majorant_res=st.integers(1, 20), seed=st.integers(0, 2 ** 32 - 1), sparse=st.booleans())
+       majorant_res=st.integers(0, 64), seed=st.integers(0, 2 ** 32 - 1), sparse=st.booleans())
 def test_majorant_grid_bounds_the_density_everywhere(tmp_path_factory, shape, channels, majorant_res, seed, sparse):
     rng = np.random.default_rng(seed)
     data = rng.uniform(0, 10, shape + (channels,)).astype(np.float32)

@@ -205,6 +205,7 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
                                                                               g.voxel(x, y, z, 2)));
                         }
                 mg.cell_max[(size_t(cz) * res + cy) * res + cx] = m;
+                mg.global_max = max(mg.global_max, m);
             }
     return mg;
 }
@@ -212,7 +213,9 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
 
 void prepare_medium(Medium &m) {
     if (auto *grid = std::get_if<GridMedium>(&m)) {
-        const int res = std::clamp(grid->majorant_res, 1, kMaxMajorantGridRes);
+        const int *r = grid->density.grid->res;
+        const int automatic = (std::max({r[0], r[1], r[2]}) + 9) / 10;
+        const int res = std::clamp(grid->majorant_res > 0 ? grid->majorant_res : automatic, 1, kMaxMajorantGridRes);
         grid->majorants = build_majorants(*grid->density.grid, res);
     }
 }
@@ -281,9 +284,7 @@ bool MajorantIterator::next(MajorantSegment &seg) {
                             cell_[2] >= 0 && cell_[2] < mg.res;
         if (!inside) {
             // Rounding left a sliver at the far end: cover it with the global bound.
-            Spectrum global(0.0);
-            for (const Spectrum &c : mg.cell_max) global = max(global, c);
-            seg = {t_, t_end_, global * grid_->scale};
+            seg = {t_, t_end_, mg.global_max * grid_->scale};
             t_ = t_end_;
             return true;
         }
