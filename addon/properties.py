@@ -39,6 +39,10 @@ class VolpathSettings(bpy.types.PropertyGroup):
     atmosphere_preset: EnumProperty(name="Preset", default="bruneton", items=[
         ("bruneton", "Bruneton 2017", "Measured Rayleigh, Mie and ozone coefficients (Bruneton 2017, Hillaire 2020)"),
         ("report", "Course Report", "The original report's physics: lambda^-4 Rayleigh, no ozone, R = 6378 km")])
+    atmosphere_mode: EnumProperty(name="Colour", default="rgb", items=[
+        ("rgb", "RGB", "Three wavelengths, 680 / 550 / 440 nm: one pass"),
+        ("spectral", "Spectral", "Twelve wavelengths over 360-830 nm in four passes, integrated against the CIE "
+                                 "matching functions: truer sunrise colours for four times the time")])
     atmosphere_pieces: IntProperty(name="Majorant Pieces", description="Pieces of each ray's per-altitude majorant",
                                    default=4, min=1, max=16)
     sun_irradiance: FloatProperty(name="Sky Sun Irradiance", description="W/m² of the Sky Texture's own sun "

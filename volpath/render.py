@@ -2,10 +2,13 @@
 
 import os
 
+import numpy as np
+
 from . import _core
 from .auto import choose_tracer
 from .errors import RenderCancelled
 from .scene import TRACERS
+from .spectral import Film
 
 
 SAMPLERS = ("sobol", "independent")
@@ -50,15 +53,38 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
         raise ValueError(f"unknown sampler '{sampler}' (expected one of: {', '.join(SAMPLERS)})")
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
-    image, stats = _core.render(scene.native, spp, int(seed), threads, TRACERS.index(tracer), max_depth,
-                                scene.rr_depth, scene.max_null_collisions, progress, out,
-                                sampler == "sobol")
+    args = (spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth, scene.max_null_collisions)
+    if scene.passes:
+        image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")
+    else:
+        image, stats = _core.render(scene.native, *args, progress, out, sampler == "sobol")
     stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth, sampler=sampler,
                  threads=threads or os.cpu_count(), auto=auto)
     scene.last_render = stats
     if stats["cancelled"]:
         raise RenderCancelled(image)
     return image
+
+
+def _render_spectral(passes, args, progress, out, sobol):
+    """The passes of a spectral scene, each with the same seed (a path carries its three
+    wavelengths), integrated into linear sRGB (volpath/spectral.py)."""
+    film = Film(len(passes))
+    stats = {"seconds": 0.0, "nonfinite_samples": 0, "cancelled": False}
+    for k, native in enumerate(passes):
+        report = None if progress is None else (lambda f, k=k: progress((k + f) / len(passes)))
+        image, s = _core.render(native, *args, report, None, sobol)
+        stats["seconds"] += s["seconds"]
+        stats["nonfinite_samples"] += s["nonfinite_samples"]
+        if s["cancelled"]:
+            stats["cancelled"] = True
+            break
+        film.add(k, image)
+    image = film.image() if film.rgb is not None else np.zeros((*image.shape[:2], 3), np.float32)
+    if out is not None:
+        out[...] = image
+        image = out
+    return image, stats
 
 
 def resolve_tracer(scene, tracer="auto", tolerance=0.01, max_depth=-1):

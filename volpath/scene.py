@@ -13,6 +13,7 @@ import numpy as np
 from . import _core
 from .errors import SceneError, where
 from .meshes import load_mesh
+from . import spectral
 from .volume import VolumeGrid
 from .xml_reader import read_xml
 
@@ -58,7 +59,8 @@ class Scene:
 
     Attributes: ``spp``, ``max_depth``, ``rr_depth``, ``max_null_collisions``,
     ``tracer`` (the integrator's tracer), ``width``, ``height``, ``summary`` (what the
-    scene contains, for ``volpath info``) and, after a render, ``last_render``
+    scene contains, for ``volpath info``), ``passes`` (in spectral mode, the scene at each
+    pass's wavelengths; see volpath/spectral.py) and, after a render, ``last_render``
     (seconds, non-finite sample count, ...).
     """
 
@@ -72,6 +74,7 @@ class Scene:
         self.summary = summary
         self.source = source
         self.last_render = None
+        self.passes = []  # spectral mode: one native scene per wavelength pass
 
     @property
     def width(self):
@@ -108,15 +111,21 @@ def load_dict(d, base_dir=".", source=None):
     """Build a scene from a Mitsuba-style dictionary ({'type': 'scene', ...})."""
     if not isinstance(d, dict) or d.get("type") != "scene":
         raise SceneError("expected a scene dictionary with 'type': 'scene'")
-    return _Builder(d, base_dir, source).build()
+    builder = _Builder(d, base_dir, source)
+    scene = builder.build()
+    if builder.spectral_passes:  # the scene again at each pass's wavelengths
+        scene.passes = [_Builder(d, base_dir, source, wavelengths).build().native
+                        for wavelengths in spectral.pass_wavelengths(builder.spectral_passes)]
+    return scene
 
 
 # ----------------------------------------------------------------------------------------
 # Parameter access with bookkeeping: whatever a plugin does not read is an error.
 
 class _Params:
-    def __init__(self, d, kind):
+    def __init__(self, d, kind, wavelengths=None):
         self.d, self.kind = d, kind
+        self.wavelengths = wavelengths  # a spectral pass's three wavelengths (nm), or None: RGB
         self.loc = d.get("__loc__")
         self.type = d.get("type")
         self.read = {"type", "__loc__", "__id__", "__kind__", "__old__"}
@@ -168,13 +177,17 @@ class _Params:
             raise self.error(f"'{name}' is '{v}', expected one of: {', '.join(choices)}")
         return v
 
-    def rgb(self, name, default=None, nonnegative=True):
+    def rgb(self, name, default=None, nonnegative=True, emitted=False, spectral=True):
+        """A colour; in a spectral pass, its values at the pass's wavelengths (times the
+        white illuminant when `emitted`; as given when not `spectral`)."""
         v = self.raw(name, default)
         rgb = _to_rgb(v)
         if rgb is None:
             raise self.error(f"'{name}' must be a float, rgb or spectrum, got {_describe(v)}")
         if not np.all(np.isfinite(rgb)) or (nonnegative and np.any(rgb < 0)):
             raise self.error(f"'{name}' must be finite and non-negative, got {list(rgb)}")
+        if self.wavelengths is not None and spectral:
+            rgb = spectral_colour(rgb, self.wavelengths, emitted)
         return rgb
 
     def vec3(self, name, default=None):
@@ -205,6 +218,13 @@ def _describe(v):
     if isinstance(v, dict):
         return f"a {v.get('type', 'dictionary')}"
     return repr(v)
+
+
+def spectral_colour(rgb, wavelengths, emitted):
+    """An RGB colour (..., 3) at a spectral pass's three wavelengths; emitters carry the
+    white illuminant."""
+    values = spectral.uplift(rgb, wavelengths)
+    return values * spectral.white(wavelengths) if emitted else values
 
 
 def _constant_grid(rgb):
@@ -273,8 +293,10 @@ def _cube():
 
 
 class _Builder:
-    def __init__(self, d, base_dir, source):
+    def __init__(self, d, base_dir, source, wavelengths=None):
         self.d, self.base_dir, self.source = d, base_dir, source
+        self.wavelengths = wavelengths
+        self.spectral_passes = 0  # set by an atmosphere in mode="spectral"
         self.old = bool(d.get("__old__", False))
         self.native = _core.Scene()
         self.ids = {}
@@ -289,7 +311,7 @@ class _Builder:
 
     def params(self, d, kind):
         """A plugin's parameters; remembers where it is for errors found later."""
-        p = _Params(d, kind)
+        p = _Params(d, kind, self.wavelengths)
         self.loc = p.loc
         return p
 
@@ -610,7 +632,7 @@ class _Builder:
                     raise p.error(f"'albedo' must be at most 1, got {list(albedo)}")
                 sigma_s = sigma_t * albedo
                 sigma_a = sigma_t - sigma_s
-            Le = p.rgb("radiance", 0.0)
+            Le = p.rgb("radiance", 0.0, emitted=True)
             if np.any(Le > 0) and not np.any(sigma_a > 0):
                 raise p.error("'radiance' needs absorption: the medium emits sigma_a * radiance")
             index = self.native.add_medium_homogeneous(tuple(sigma_a), tuple(sigma_s), g, tuple(Le))
@@ -619,8 +641,8 @@ class _Builder:
                                           "albedo": np.divide(sigma_s, sigma_a + sigma_s, out=np.zeros(3), where=(sigma_a + sigma_s) > 0).tolist(),
                                           "g": g, "loc": p.loc})
         elif p.type == "heterogeneous":
-            density = self.volume(p, "density" if p.has("density") else "sigma_t", 1.0)
-            albedo_grid = self.volume(p, "albedo", 0.75)
+            density = self.spectral_grid(self.volume(p, "density" if p.has("density") else "sigma_t", 1.0))
+            albedo_grid = self.spectral_grid(self.volume(p, "albedo", 0.75))
             albedo = np.ones(3)
             if _is_constant(albedo_grid):
                 albedo, albedo_grid = _constant_rgb(albedo_grid), None
@@ -662,33 +684,49 @@ class _Builder:
             if grid.channels != 1:
                 raise p.error("'temperature' must be a one-channel grid (kelvin)")
             scale = p.float("blackbody_scale", 1.0, minimum=0.0)
-            if _is_constant(grid):
-                return None, blackbody_rgb(grid.max()).reshape(3) * scale
-            return grid.map(lambda t: blackbody_rgb(t[..., 0])), np.full(3, scale)
-        grid = self.volume(p, "radiance", 0.0)
+            Le = self.spectral_grid(grid.map(lambda t: blackbody_rgb(t[..., 0])), emitted=True)
+            if _is_constant(Le):
+                return None, _constant_rgb(Le) * scale
+            return Le, np.full(3, scale)
+        grid = self.spectral_grid(self.volume(p, "radiance", 0.0), emitted=True)
         if _is_constant(grid):
             return None, _constant_rgb(grid)
         return grid, np.ones(3)
+
+    def spectral_grid(self, grid, emitted=False):
+        """A grid's values at a spectral pass's wavelengths (as given in RGB mode)."""
+        if self.wavelengths is None or (grid.channels == 1 and not emitted):
+            return grid  # grey is flat
+        wavelengths = self.wavelengths
+        return grid.map(lambda v: spectral_colour(np.broadcast_to(v, v.shape[:-1] + (3,)), wavelengths, emitted))
 
     def atmosphere(self, p, scale):
         """The planet's air, its top-of-atmosphere boundary and (unless ground=false) the
         ground as a diffuse sphere. Lengths in metres times `unit` (metres per scene unit)."""
         preset = ATMOSPHERE_PRESETS[p.str("preset", "bruneton", tuple(ATMOSPHERE_PRESETS))]
-        mode = p.str("mode", "rgb", ("rgb", "spectral"))
-        if mode == "spectral":
-            raise p.error("mode 'spectral' is not implemented yet (use 'rgb')")
+        if p.str("mode", "rgb", ("rgb", "spectral")) == "spectral":
+            self.spectral_passes = p.int("spectral_passes", 4)
+            if not 1 <= self.spectral_passes <= 32:
+                raise p.error("'spectral_passes' must be in 1..32 (three wavelengths each)")
         unit = p.float("unit", 1.0, positive=True)  # metres per scene unit
         R = p.float("planet_radius", preset["planet_radius"], positive=True) / unit
         H = p.float("atmosphere_height", preset["atmosphere_height"], positive=True) / unit
         center = p.vec3("center", [0.0, -R, 0.0])
         per_unit = unit * scale  # coefficients are per metre
-        rayleigh = p.rgb("rayleigh_scattering", {"type": "rgb", "value": list(preset["rayleigh_scattering"])}) * per_unit
-        mie_s = p.rgb("mie_scattering", preset["mie_scattering"]) * per_unit
-        mie_t = p.rgb("mie_extinction", preset["mie_extinction"]) * per_unit
+        # Coefficients are given at 680 / 550 / 440 nm; a spectral pass takes Rayleigh's
+        # lambda^-4 and ozone's band through the 550 nm value and Mie's mean (grey).
+        raw = dict(spectral=False)
+        rayleigh = p.rgb("rayleigh_scattering", {"type": "rgb", "value": list(preset["rayleigh_scattering"])}, **raw) * per_unit
+        mie_s = p.rgb("mie_scattering", preset["mie_scattering"], **raw) * per_unit
+        mie_t = p.rgb("mie_extinction", preset["mie_extinction"], **raw) * per_unit
         if np.any(mie_t < mie_s):
             raise p.error("'mie_extinction' must be at least 'mie_scattering'")
         ozone = p.bool("ozone", preset["ozone"])
-        ozone_sigma = p.rgb("ozone_absorption", {"type": "rgb", "value": list(preset["ozone_absorption"])}) * per_unit
+        ozone_sigma = p.rgb("ozone_absorption", {"type": "rgb", "value": list(preset["ozone_absorption"])}, **raw) * per_unit
+        if self.wavelengths is not None:
+            rayleigh = spectral.rayleigh(rayleigh[1], self.wavelengths)
+            mie_s, mie_t = np.full(3, mie_s.mean()), np.full(3, mie_t.mean())
+            ozone_sigma = spectral.ozone(ozone_sigma[1], self.wavelengths)
         g = p.float("g", preset["g"])
         if not -1 < g < 1:
             raise p.error(f"'g' must be in (-1, 1), got {g}")
@@ -780,7 +818,7 @@ class _Builder:
                 ep = self.params(r, "emitter")
                 if ep.type != "area":
                     raise ep.error("only 'area' emitters can be attached to shapes")
-                radiance = ep.rgb("radiance", 1.0)
+                radiance = ep.rgb("radiance", 1.0, emitted=True)
                 ep.check()
             elif kind == "medium":
                 if key not in ("interior", "exterior"):
@@ -873,7 +911,7 @@ class _Builder:
                 pos = p.vec3("position")
             else:
                 pos = p.transform()[:3, 3]
-            intensity = p.rgb("intensity", 1.0)
+            intensity = p.rgb("intensity", 1.0, emitted=True)
             n.add_point_light(tuple(pos), tuple(intensity))
             info.update(position=pos.tolist(), intensity=intensity.tolist())
         elif p.type == "directional":
@@ -883,11 +921,11 @@ class _Builder:
                 direction = p.transform()[:3, :3] @ np.array([0.0, 0.0, 1.0])
             if np.linalg.norm(direction) == 0:
                 raise p.error("'direction' must not be zero")
-            irradiance = p.rgb("irradiance", 1.0)
+            irradiance = p.rgb("irradiance", 1.0, emitted=True)
             n.add_directional_light(tuple(direction), tuple(irradiance))
             info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
         elif p.type == "constant":
-            radiance = p.rgb("radiance", 1.0)
+            radiance = p.rgb("radiance", 1.0, emitted=True)
             n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4))
             info.update(radiance=radiance.tolist())
         elif p.type == "envmap":
@@ -904,6 +942,8 @@ class _Builder:
                 raise p.error(f"{path}: the environment map has negative or non-finite pixels")
             scale = p.float("scale", 1.0, minimum=0.0)
             to_world = p.transform()
+            if self.wavelengths is not None:
+                image = spectral_colour(image, self.wavelengths, emitted=True).astype(np.float32)
             n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world))
             info.update(filename=path, resolution=list(image.shape[1::-1]))
         elif p.type == "sun":
@@ -920,7 +960,7 @@ class _Builder:
             radius = p.float("angular_radius", 0.004675, positive=True)
             if radius >= 0.5:
                 raise p.error("'angular_radius' must be below 0.5 rad")
-            irradiance = p.rgb("irradiance", 1.0)
+            irradiance = p.rgb("irradiance", 1.0, emitted=True)
             n.add_sun(tuple(to_sun), radius, tuple(irradiance))
             info.update(to_sun=to_sun.tolist(), angular_radius=radius, irradiance=irradiance.tolist())
         elif p.type == "area":

@@ -53,8 +53,8 @@ def _sky(node, scene, strength, report, has_sun_lamp):
         report.warn(f"Sky Texture: the {node.sky_type.replace('_', '-').title()} model is analytic; "
                     "rendering the physical atmosphere instead")
     unit = scene.unit_settings.scale_length or 1.0
-    air = {"type": "atmosphere", "preset": settings.atmosphere_preset, "unit": float(unit),
-           "majorant_pieces": int(settings.atmosphere_pieces)}
+    air = {"type": "atmosphere", "preset": settings.atmosphere_preset, "mode": settings.atmosphere_mode,
+           "unit": float(unit), "majorant_pieces": int(settings.atmosphere_pieces)}
     from volpath.scene import ATMOSPHERE_PRESETS
 
     preset = ATMOSPHERE_PRESETS[settings.atmosphere_preset]

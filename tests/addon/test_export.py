@@ -180,6 +180,13 @@ def test_sky_texture_becomes_the_atmosphere(blank):
     assert np.all(np.isfinite(img))
     # Daylight sky: blue above the horizon.
     assert img[:8].mean(axis=(0, 1))[2] > img[:8].mean(axis=(0, 1))[0]
+    # The panel's Colour setting: spectral passes, a sky still blue above the horizon.
+    blank.volpath.atmosphere_mode = "spectral"
+    d = export_scene(depsgraph()).scene
+    scene = volpath.load_dict(d)
+    assert d["air"]["mode"] == "spectral" and len(scene.passes) == 4
+    img = volpath.render(scene, spp=2, seed=1)
+    assert np.all(np.isfinite(img)) and img[:8].mean(axis=(0, 1))[2] > img[:8].mean(axis=(0, 1))[0]
 
 
 def test_animation_render_writes_every_frame(blank, tmp_path):
