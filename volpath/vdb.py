@@ -49,7 +49,7 @@ def read(path, grid):
         out = os.path.join(tmp, "grid.bin")
         try:
             r = subprocess.run([sys.executable, "-I", "-S", "-c", _CHILD, module_dir, str(path), grid, out],
-                               capture_output=True, text=True, timeout=timeout)
+                               capture_output=True, text=True, timeout=timeout, env=_child_environment())
         except subprocess.TimeoutExpired:
             raise SceneError(f"{what}: reading took longer than {timeout:.0f} s (a corrupt file?)") from None
         if r.returncode != 0:
@@ -60,6 +60,12 @@ def read(path, grid):
                            f"could not run ({r.stderr.strip()[-300:]})")
             raise SceneError(f"{what}: {message}")
         return _load(out)
+
+
+def _child_environment():
+    """The environment without LD_PRELOAD: a preloaded sanitizer runtime (make sanitize) is
+    for _core, which the child never loads, and it cannot start under the memory limit."""
+    return {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
 
 
 def _load(path):
