@@ -81,7 +81,7 @@ def _info(args, parser):
         tau_text = f", optical thickness {tau[0]:.3g}..{tau[1]:.3g}" if tau else ""
         if m["type"] == "atmosphere":
             print(f"    [{m['index']}] atmosphere: planet radius {m['planet_radius']:.6g}, height {m['height']:.6g}, "
-                  f"sea-level sigma_t {[float(f'{v:.4g}') for v in m['sigma_t']]}, g {m['g']}")
+                  f"sea-level sigma_t {[float(f'{v:.4g}') for v in m['sigma_t']]}, g {m['g']}, {m['mode']} mode")
         elif m["type"] == "homogeneous":
             print(f"    [{m['index']}] homogeneous sigma_t {[round(v, 6) for v in m['sigma_t']]}, "
                   f"albedo {[round(v, 4) for v in m['albedo']]}, g {m['g']}{tau_text}")

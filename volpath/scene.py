@@ -704,7 +704,8 @@ class _Builder:
         """The planet's air, its top-of-atmosphere boundary and (unless ground=false) the
         ground as a diffuse sphere. Lengths in metres times `unit` (metres per scene unit)."""
         preset = ATMOSPHERE_PRESETS[p.str("preset", "bruneton", tuple(ATMOSPHERE_PRESETS))]
-        if p.str("mode", "rgb", ("rgb", "spectral")) == "spectral":
+        mode = p.str("mode", "rgb", ("rgb", "spectral"))
+        if mode == "spectral":
             self.spectral_passes = p.int("spectral_passes", 4)
             if not 1 <= self.spectral_passes <= 32:
                 raise p.error("'spectral_passes' must be in 1..32 (three wavelengths each)")
@@ -748,7 +749,7 @@ class _Builder:
             n.add_sphere(tuple(center), R, False, n.add_bsdf_diffuse(tuple(albedo), False), interior=-1,
                          exterior=index, medium_interface=True)
         self.atmospheres.append((index, center, R + H))
-        self.summary["media"].append({"index": index, "type": "atmosphere", "planet_radius": R, "height": H,
+        self.summary["media"].append({"index": index, "type": "atmosphere", "mode": mode, "planet_radius": R, "height": H,
                                       "sigma_t": (rayleigh + mie_t + (ozone_sigma if ozone else 0)).tolist(),
                                       "albedo": [float("nan")] * 3, "g": g, "loc": p.loc})
         return index
