@@ -10,10 +10,9 @@ import os
 
 import numpy as np
 
-from . import _core
+from . import _core, spectral
 from .errors import SceneError, where
 from .meshes import load_mesh
-from . import spectral
 from .volume import VolumeGrid
 from .xml_reader import read_xml
 
