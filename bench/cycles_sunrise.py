@@ -9,7 +9,12 @@ in display units 0..1, before 8-bit rounding) against the tone-mapped reference,
 the few pixels of a visible sun disc do not decide it. The figure is the time per frame
 to reach TARGET, interpolated in log-log between the ladder's points that bracket it.
 
-    python bench/cycles_sunrise.py [--frame 34] [--res 160x90] [--append bench/RESULTS.md]
+With --sky (issue #4), the scene is the sky alone: a Sky Texture (Cycles' multiple
+scattering model) with its sun 2 degrees up, the camera 2 m above the ground looking 60
+degrees away from the sun, 320x180; both references are saved side by side in
+docs/sky_cycles_volpath.png.
+
+    python bench/cycles_sunrise.py [--frame 34] [--res 160x90] [--sky] [--append bench/RESULTS.md]
 """
 
 import argparse
@@ -39,12 +44,35 @@ def time_to(points):
     raise ValueError("need at least two points")
 
 
+def sky_scene():
+    """The sky alone: Sky Texture (multiple scattering), its sun 2 degrees up, the camera
+    2 m above the ground looking 10 degrees up and 60 degrees away from the sun."""
+    import math
+
+    import bpy
+
+    sys.path.insert(0, os.path.join(ROOT, "tests"))
+    from blender_scenes import add_camera, blank_scene, set_background
+
+    scene = blank_scene()
+    add_camera(scene, location=(0, 0, 2), rotation=(math.radians(100), 0, math.radians(60)))
+    tree = set_background(scene, (0, 0, 0)).node_tree
+    sky = tree.nodes.new("ShaderNodeTexSky")
+    sky.sky_type, sky.sun_elevation, sky.sun_rotation = "MULTIPLE_SCATTERING", math.radians(2), 0.0
+    tree.links.new(sky.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    scene.frame_start = scene.frame_end = 1
+    return scene
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--frame", type=int, default=34)
     ap.add_argument("--res", default="160x90")
+    ap.add_argument("--sky", action="store_true", help="the sky alone (see above)")
     ap.add_argument("--append")
     args = ap.parse_args()
+    if args.sky:
+        args.frame, args.res = 1, "320x180" if args.res == "160x90" else args.res
     import bpy
 
     import addon
@@ -53,9 +81,12 @@ def main():
     from pipeline.export import export_animation
     from volpath.frames import render_frame
 
-    addon.register()
-    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend"))
-    scene = bpy.context.scene
+    if args.sky:
+        scene = sky_scene()
+    else:
+        addon.register()
+        bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend"))
+        scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = map(int, args.res.split("x"))
     scene.render.resolution_percentage = 100
     results = {}
@@ -93,14 +124,22 @@ def main():
             for spp in LADDER:
                 image, seconds = fn(spp, spp)
                 points.append((seconds, float(np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2))), spp))
-            results[name] = (time_to(points), points, ref_seconds)
+            results[name] = (time_to(points), points, ref_seconds, video.display(reference, exposure))
     rows = []
     best_other = results["Cycles 5.0"][0][0]
-    for name, ((t, slope), points, ref_seconds) in results.items():
+    for name, ((t, slope), points, ref_seconds, _) in results.items():
         ladder = "; ".join(f"{spp} spp: {s:.2f} s, {e:.4f}" for s, e, spp in points)
         rows.append(f"| {name} | {t:.2f} s | {3600 / t:.0f} | t^{slope:.2f} | {t / best_other:.2f}x | {ladder} |")
-    section = (f"\n## Sunrise frame: Volpath against Cycles (issue #7; `bench/cycles_sunrise.py`)\n\n"
-               f"Frame {args.frame} of the default sunrise at {args.res}, {THREADS} threads, each renderer "
+    if args.sky:
+        video.write_png(os.path.join(ROOT, "docs", "sky_cycles_volpath.png"),
+                        np.concatenate([results["Cycles 5.0"][3], results["Volpath"][3]], axis=1))
+    what = (f"The sky alone (`--sky`): Sky Texture, multiple scattering, sun 2° up, camera 2 m up looking "
+            f"60° away from the sun, at {args.res}" if args.sky else f"Frame {args.frame} of the default sunrise at "
+            f"{args.res}")
+    title = ("Sunrise sky: Volpath against Cycles' Sky Texture (issue #4" if args.sky
+             else "Sunrise frame: Volpath against Cycles (issue #7")
+    section = (f"\n## {title}; `bench/cycles_sunrise.py`)\n\n"
+               f"{what}, {THREADS} threads, each renderer "
                f"against its own {REF_SPP}-spp reference (their skies differ: Cycles' Sky Texture is a "
                f"precomputed map with an undimmed sun lamp, Volpath traces the atmosphere). Time per frame "
                f"to an RMSE of {TARGET} in display units (tone-mapped as the video is), interpolated over "
@@ -108,6 +147,15 @@ def main():
                "| renderer | seconds per frame | frames per hour | error vs time | time / Cycles | ladder (spp: seconds, RMSE) |\n"
                "|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
     ratio = results["Volpath"][0][0] / best_other
+    if args.sky:
+        section += (f"\nReading: Volpath needs {ratio:.1f}x Cycles' time. Cycles looks the sky up in a table it "
+                    "precomputes from its own multiple-scattering model (no path is traced through the air, so "
+                    f"its error is the pixel sampling's alone); Volpath path-traces the atmosphere (error falling "
+                    f"as t^{results['Volpath'][0][1]:.2f}). The skies also differ in model: Cycles' table against "
+                    "Volpath's Bruneton air (docs/sky_cycles_volpath.png: Cycles left, Volpath right, each at its "
+                    "own exposure).\n")
+        publish(section, args.append)
+        return
     section += (f"\nReading: Volpath needs {ratio:.1f}x Cycles' time per frame, but the two do not do the same "
                 "work: Cycles' sky is a radiance map precomputed once (with the scene sync, most of its time at "
                 "low spp), so only the fog and the surfaces are path traced, while Volpath traces every sky "
