@@ -56,6 +56,7 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/export_speed.py --append bench/RESULTS.md
 	$(PY) bench/pipeline_throughput.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --append bench/RESULTS.md
+	$(PY) bench/cycles_sunrise.py --sky --append bench/RESULTS.md
 	$(PY) bench/sparse_cloud.py --append bench/RESULTS.md
 	$(PY) bench/spectral_sky.py --append bench/RESULTS.md
 

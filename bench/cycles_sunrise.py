@@ -131,8 +131,9 @@ def main():
         ladder = "; ".join(f"{spp} spp: {s:.2f} s, {e:.4f}" for s, e, spp in points)
         rows.append(f"| {name} | {t:.2f} s | {3600 / t:.0f} | t^{slope:.2f} | {t / best_other:.2f}x | {ladder} |")
     if args.sky:
+        side_by_side = np.concatenate([results["Cycles 5.0"][3], results["Volpath"][3]], axis=1)
         video.write_png(os.path.join(ROOT, "docs", "sky_cycles_volpath.png"),
-                        np.concatenate([results["Cycles 5.0"][3], results["Volpath"][3]], axis=1))
+                        np.round(side_by_side * 255).astype(np.uint8))
     what = (f"The sky alone (`--sky`): Sky Texture, multiple scattering, sun 2° up, camera 2 m up looking "
             f"60° away from the sun, at {args.res}" if args.sky else f"Frame {args.frame} of the default sunrise at "
             f"{args.res}")
