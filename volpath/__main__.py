@@ -87,8 +87,8 @@ def _info(args, parser):
                   f"albedo {[round(v, 4) for v in m['albedo']]}, g {m['g']}{tau_text}")
         else:
             lo, hi = m["sigma_t_range"]
-            print(f"    [{m['index']}] heterogeneous {'x'.join(map(str, m['resolution']))} grid, "
-                  f"sigma_t {lo:.3g}..{hi:.3g}, g {m['g']}{tau_text}")
+            print(f"    [{m['index']}] heterogeneous {'x'.join(map(str, m['resolution']))} grid "
+                  f"({m['memory'] / 2**20:.1f} MiB resident), sigma_t {lo:.3g}..{hi:.3g}, g {m['g']}{tau_text}")
     print(f"  emitters  {len(s['emitters'])}")
     for e in s["emitters"]:
         print(f"    {e['type']}")
