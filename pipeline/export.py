@@ -63,8 +63,9 @@ def _volume_sequences(scene, sequences, frames, directory):
                 for grid in ("density", "radiance"):
                     if grid in shape["interior"]:
                         rel = f"volumes/{key}_{grid}_{entry['frame']:04d}.vol"
-                        write_vol(os.path.join(directory, rel), shape["interior"][grid]["data"])
-                        grids[grid] = {"filename": rel, "to_world": shape["interior"][grid]["to_world"].tolist()}
+                        volume = shape["interior"][grid]  # a volpath.VolumeGrid
+                        write_vol(os.path.join(directory, rel), volume.numpy())
+                        grids[grid] = {"filename": rel, "to_world": volume.to_world.tolist()}
                 entry["volumes"][key] = grids
     finally:
         scene.frame_set(current)

@@ -994,7 +994,7 @@ _KINDS = {
     "emitter": {"point", "directional", "sun", "constant", "envmap", "area", "spot"},
     "medium": {"homogeneous", "heterogeneous", "atmosphere"},
     "phase": {"isotropic", "hg"},
-    "volume": {"gridvolume", "constvolume"},
+    "volume": {"gridvolume", "vdbvolume", "constvolume"},
     "texture": {"bitmap", "checkerboard"},
 }
 

@@ -23,10 +23,11 @@ from .grids import read_vol
 class VolumeGrid:
     """A sparse voxel grid (1 or 3 channels, float32) and its placement ``to_world``."""
 
-    def __init__(self, native, to_world=None, source=""):
+    def __init__(self, native, to_world=None, source="", vdb=None):
         self.native = native
         self.to_world = np.eye(4) if to_world is None else np.array(to_world, dtype=np.float64).reshape(4, 4)
         self.source = source  # "file, grid 'name'" for messages
+        self.vdb = vdb  # (path, grid, to_world given) when read from a .vdb: how to read it again
 
     @classmethod
     def from_numpy(cls, data, to_world=None):
@@ -140,4 +141,5 @@ def _read_vdb(path, name, user_to_world):
     unit_to_index = np.eye(4)
     unit_to_index[:3, :3], unit_to_index[:3, 3] = np.diag(d["res"].astype(np.float64)), d["origin"] - 0.5
     native = _core.VoxelGrid.from_bricks(tuple(int(r) for r in d["res"]), d["brick_index"], d["bricks"])
-    return VolumeGrid(native, user_to_world @ d["index_to_world"] @ unit_to_index, what)
+    return VolumeGrid(native, user_to_world @ d["index_to_world"] @ unit_to_index, what,
+                      vdb=(os.path.abspath(path), name, user_to_world))

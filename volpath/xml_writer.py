@@ -1,4 +1,5 @@
-"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY and grids as .vol.
+"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY, its grids as .vol
+and its OpenVDB grids as copies of their .vdb files.
 
 The inverse of xml_reader.py for what the Blender exporter produces: ``write_scene(d,
 directory)`` writes ``scene.xml`` next to ``meshes/`` and ``volumes/`` so that
@@ -7,6 +8,7 @@ written with ``repr``, which round-trips exactly; meshes and grids are float32 e
 """
 
 import os
+import shutil
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -56,7 +58,12 @@ class _Writer:
     def entry(self, key, value, depth, top=False):
         pad = "    " * depth
         name = f" name={quoteattr(key)}"
-        if isinstance(value, VolumeGrid):  # a dense .vol placed by its to_world
+        if isinstance(value, VolumeGrid) and value.vdb:  # a copy of the .vdb it was read from
+            path, grid, to_world = value.vdb
+            rel = self.asset("volumes", os.path.splitext(os.path.basename(path))[0], "vdb")
+            shutil.copyfile(path, os.path.join(self.directory, rel))
+            value = {"type": "vdbvolume", "filename": rel, "grid": grid, "to_world": to_world}
+        elif isinstance(value, VolumeGrid):  # a dense .vol placed by its to_world
             value = {"type": "gridvolume", "data": value.numpy(), "to_world": value.to_world}
         if isinstance(value, dict):
             if value.get("type") == "ref":

@@ -1,9 +1,13 @@
-"""Volume objects: their OpenVDB grids, read with the ``openvdb`` module that ships with
-Blender, become dense grids over the active voxels (shared/README.md §4).
+"""Volume objects: their OpenVDB grids become heterogeneous media.
 
-A VDB voxel i sits at i * voxel_size (Blender's ``matrix_object`` maps index to object
-space); a Volpath grid voxel at (i + 0.5) / res of the unit box. The box therefore starts
-half a voxel before the first active voxel.
+The density grid is read by volpath's own sparse reader (``VolumeGrid.from_file``: memory
+follows the active voxels), placed by the file's transform and the object's. An emitting
+volume is read with the ``openvdb`` module that ships with Blender (shared/README.md §4)
+into dense grids over the density's active voxels, because its radiance is Blender's
+emission divided by the absorption, voxel by voxel. There a VDB voxel i sits at
+i * voxel_size (Blender's ``matrix_object`` maps index to object space) and a Volpath voxel
+at (i + 0.5) / res of the unit box, so the box starts half a voxel before the first active
+voxel.
 """
 
 import os
@@ -60,16 +64,6 @@ def export(obj, matrix_world, medium, report, exterior):
         raise report.error(f"{owner}: no grid named '{attribute}' in '{path}' (it has: {names})")
     if grid.data_type != "FLOAT":
         raise report.error(f"{owner}: grid '{attribute}' is {grid.data_type}, expected a FLOAT density")
-    try:
-        data, first = read_grid(path, attribute)
-    except (RuntimeError, KeyError, ValueError) as e:
-        raise report.error(f"{owner}: cannot read grid '{attribute}' from '{path}' ({e})") from None
-    if data is None:
-        report.warn(f"{owner}: grid '{attribute}' has no active voxels (skipped)")
-        return None
-    if data.min() < 0:
-        report.warn(f"{owner}: negative densities clamped to 0")
-        data = np.maximum(data, 0)
     sigma_t = medium["sigma_a"] + medium["sigma_s"]
     scale = float(sigma_t.mean())
     if scale <= 0:
@@ -78,47 +72,70 @@ def export(obj, matrix_world, medium, report, exterior):
         report.warn(f"{owner}: coloured extinction is not supported for grids; using its mean")
     albedo = np.clip(medium["sigma_s"] / scale, 0, 1)
     interior = {"type": "heterogeneous", "scale": scale,
-                "density": {"type": "gridvolume", "data": data},
                 "albedo": {"type": "rgb", "value": albedo.tolist()},
                 "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
-    radiance = _emission(volume, path, medium, data, first, scale, albedo, report, owner)
-    if radiance is not None:
-        interior["radiance"] = {"type": "gridvolume", "data": radiance}
-    res = np.array(data.shape[2::-1], np.float64)
-    box = np.eye(4)
-    box[:3, :3] = np.diag(res)
-    box[:3, 3] = first - 0.5
-    grid_to_world = convert.matrix(matrix_world) @ np.array(grid.matrix_object, dtype=np.float64) @ box
+    if _emits(medium):
+        density = _dense_with_emission(volume, path, attribute, grid, matrix_world, medium, scale, albedo,
+                                       interior, report, owner)
+    else:  # read sparse by volpath's own reader: memory follows the active voxels
+        from volpath import SceneError, VolumeGrid
+
+        try:
+            density = VolumeGrid.from_file(path, attribute, to_world=convert.matrix(matrix_world))
+        except SceneError as e:
+            if "no active voxels" not in str(e):
+                raise report.error(f"{owner}: {e}") from None
+            density = None
+    if density is None:
+        report.warn(f"{owner}: grid '{attribute}' has no active voxels (skipped)")
+        return None
+    interior["density"] = density
     cube = np.eye(4)
     cube[:3, :3] = np.diag([0.5, 0.5, 0.5])
     cube[:3, 3] = 0.5
-    for grid_entry in ("density", "radiance"):
-        if grid_entry in interior:
-            interior[grid_entry]["to_world"] = grid_to_world
-    shape = {"type": "cube", "to_world": grid_to_world @ cube, "bsdf": {"type": "null"}, "interior": interior}
+    shape = {"type": "cube", "to_world": density.to_world @ cube, "bsdf": {"type": "null"}, "interior": interior}
     if exterior is not None:
         shape["exterior"] = exterior
     return shape
 
 
-def _emission(volume, path, medium, density, first, scale, albedo, report, owner):
-    """The radiance grid (z, y, x, 3) of an emitting volume, or None: Blender's emission
-    coefficient over sigma_a, plus blackbody radiance at Temperature x the temperature grid
-    (read over the density's box)."""
+def _emits(medium):
+    return bool(np.any(np.asarray(medium.get("emission", 0)) > 0) or medium.get("blackbody", 0) > 0)
+
+
+def _dense_with_emission(volume, path, attribute, grid, matrix_world, medium, scale, albedo, interior, report,
+                         owner):
+    """An emitting volume's density as a VolumeGrid, and its radiance grid in `interior`:
+    Blender's emission over sigma_a, plus blackbody radiance at Temperature x the
+    temperature grid, voxel by voxel over the density's active box (read with Blender's
+    own openvdb: Le divides by the density, so both grids must share voxels)."""
+    from volpath import VolumeGrid
+
     from .materials import emitted_radiance
 
-    if not (np.any(np.asarray(medium.get("emission", 0)) > 0) or medium.get("blackbody", 0) > 0):
+    try:
+        data, first = read_grid(path, attribute)
+    except (RuntimeError, KeyError, ValueError) as e:
+        raise report.error(f"{owner}: cannot read grid '{attribute}' from '{path}' ({e})") from None
+    if data is None:
         return None
-    temperature = np.full(density.shape[:3], medium.get("temperature", 0.0))
+    if data.min() < 0:
+        report.warn(f"{owner}: negative densities clamped to 0")
+        data = np.maximum(data, 0)
+    box = np.eye(4)
+    box[:3, :3] = np.diag(np.array(data.shape[2::-1], np.float64))
+    box[:3, 3] = first - 0.5
+    grid_to_world = convert.matrix(matrix_world) @ np.array(grid.matrix_object, dtype=np.float64) @ box
+    temperature = np.full(data.shape[:3], medium.get("temperature", 0.0))
     if medium.get("blackbody", 0) > 0:
         name = medium["temperature_attribute"]
         if volume.grids.get(name) is not None:
-            grid, _ = read_grid(path, name, (first, density.shape[2::-1]))
-            temperature = temperature * grid[..., 0]
+            t_grid, _ = read_grid(path, name, (first, data.shape[2::-1]))
+            temperature = temperature * t_grid[..., 0]
         else:
             report.warn(f"{owner}: no '{name}' grid: blackbody at the constant Temperature")
-    sigma_a = scale * density * (1 - albedo)  # (z, y, x, 3)
+    sigma_a = scale * data * (1 - albedo)  # (z, y, x, 3)
     Le = emitted_radiance(medium, sigma_a, temperature, report, owner)
-    if not np.any(Le > 0):
-        return None
-    return np.ascontiguousarray(Le, dtype=np.float32)
+    if np.any(Le > 0):
+        interior["radiance"] = VolumeGrid.from_numpy(np.ascontiguousarray(Le, dtype=np.float32), grid_to_world)
+    return VolumeGrid.from_numpy(data, grid_to_world)
