@@ -39,8 +39,7 @@ except (ValueError, RuntimeError, MemoryError) as e:
 
 def read(path, grid):
     """The grid `grid` of the .vdb file `path` as a dict: res (x, y, z), origin (the index of
-    voxel 0), index_to_world (4x4), brick_index (bz, by, bx), bricks (n, 8, 8, 8, c),
-    active_voxels."""
+    voxel 0), index_to_world (4x4), brick_index (bz, by, bx), bricks (n, 8, 8, 8, c)."""
     what = f"{path}: grid '{grid}'"
     spec = importlib.util.find_spec("volpath._vdb")  # found, not imported (an editable install puts it apart)
     module_dir = os.path.dirname(spec.origin) if spec else os.path.dirname(os.path.abspath(__file__))
@@ -73,11 +72,11 @@ def _load(path):
         if f.read(8) != b"VPVDB1\0\0":
             raise SceneError(f"{path}: not a brick file")
         ints = np.fromfile(f, "<i4", 7)
-        active, stored = np.fromfile(f, "<i8", 2)
+        stored = int(np.fromfile(f, "<i8", 1)[0])
         index_to_world = np.fromfile(f, "<f8", 16).reshape(4, 4)
         res, origin, channels = ints[:3], ints[3:6], int(ints[6])
         bricks = (res + 7) // 8
         index = np.fromfile(f, "<i4", int(np.prod(bricks))).reshape(bricks[::-1])
-        data = np.fromfile(f, "<f4", int(stored) * 512 * channels).reshape(int(stored), 8, 8, 8, channels)
+        data = np.fromfile(f, "<f4", stored * 512 * channels).reshape(stored, 8, 8, 8, channels)
     return {"res": res, "origin": origin, "index_to_world": index_to_world, "brick_index": index,
-            "bricks": data, "active_voxels": int(active)}
+            "bricks": data}

@@ -6,7 +6,6 @@
 // leaves fall exactly on bricks, and each leaf is copied as one brick (x fastest inside,
 // where OpenVDB keeps z fastest). Active tiles of inner nodes are expanded into bricks.
 #include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -36,7 +35,6 @@ template <typename T> float channel(const openvdb::math::Vec3<T> &v, int c) { re
 struct Bricks {
     std::array<int32_t, 3> res{}, origin{}, bricks{};
     int32_t channels = 1;
-    int64_t active_voxels = 0;
     double index_to_world[16] = {};
     std::vector<int32_t> index;
     std::vector<float> data;
@@ -82,18 +80,15 @@ Bricks read_grid(const GridT &grid) {
         const int x = ijk.x() & (kBrick - 1), y = ijk.y() & (kBrick - 1), z = ijk.z() & (kBrick - 1);
         for (int c = 0; c < C; ++c) b[((z * kBrick + y) * kBrick + x) * C + c] = channel(v, c);
     };
-    int64_t &active_voxels = out.active_voxels;
     for (auto it = grid.cbeginValueOn(); it; ++it) {
         if (it.isVoxelValue()) {
             put(it.getCoord(), *it);
-            ++active_voxels;
             continue;
         }
         const openvdb::CoordBBox tile = it.getBoundingBox();
         if (tile.volume() > uint64_t(kMaxBricks) * 64)
             throw std::invalid_argument("an active tile is too large to expand");
         for (auto ijk = tile.begin(); ijk; ++ijk) put(*ijk, *it);
-        active_voxels += tile.volume();
     }
 
     const openvdb::math::Transform &xf = grid.transform();
@@ -104,28 +99,11 @@ Bricks read_grid(const GridT &grid) {
     return out;
 }
 
-std::string grid_class(const openvdb::GridBase &g) { return openvdb::GridBase::gridClassToString(g.getGridClass()); }
-
 openvdb::io::File open_file(const std::string &path) {
     openvdb::initialize();
     openvdb::io::File file(path);
     file.open(false);  // no delayed loading: the file is read once and closed
     return file;
-}
-
-py::list list_grids(const std::string &path) {
-    py::list out;
-    auto file = open_file(path);
-    auto metas = file.readAllGridMetadata();
-    for (const auto &g : *metas) {
-        py::dict d;
-        d["name"] = g->getName();
-        d["type"] = g->valueType();
-        d["class"] = grid_class(*g);
-        out.append(d);
-    }
-    file.close();
-    return out;
 }
 
 Bricks read_bricks(const std::string &path, const std::string &name) {
@@ -148,7 +126,7 @@ Bricks read_bricks(const std::string &path, const std::string &name) {
 
 // The bricks as a little-endian file that volpath/vdb.py reads with numpy (the reading
 // process needs neither numpy nor the volpath package, so it starts fast): "VPVDB1\0\0",
-// res[3], origin[3], channels (int32), active voxels, stored bricks (int64), index_to_world
+// res[3], origin[3], channels (int32), stored bricks (int64), index_to_world
 // (16 doubles, row-major), the brick index (int32), the bricks (float32).
 void save(const std::string &path, const std::string &name, const std::string &out_path) {
     const Bricks b = read_bricks(path, name);
@@ -157,7 +135,7 @@ void save(const std::string &path, const std::string &name, const std::string &o
     const int64_t stored = int64_t(b.data.size() / (size_t(kBrick) * kBrick * kBrick * b.channels));
     bool ok = std::fwrite("VPVDB1\0\0", 1, 8, f.get()) == 8;
     ok &= std::fwrite(b.res.data(), 4, 3, f.get()) == 3 && std::fwrite(b.origin.data(), 4, 3, f.get()) == 3;
-    ok &= std::fwrite(&b.channels, 4, 1, f.get()) == 1 && std::fwrite(&b.active_voxels, 8, 1, f.get()) == 1;
+    ok &= std::fwrite(&b.channels, 4, 1, f.get()) == 1;
     ok &= std::fwrite(&stored, 8, 1, f.get()) == 1 && std::fwrite(b.index_to_world, 8, 16, f.get()) == 16;
     ok &= std::fwrite(b.index.data(), 4, b.index.size(), f.get()) == b.index.size();
     ok &= std::fwrite(b.data.data(), 4, b.data.size(), f.get()) == b.data.size();
@@ -179,8 +157,6 @@ PYBIND11_MODULE(_vdb, m) {
             PyErr_SetString(PyExc_ValueError, "truncated or corrupt file (it asks for an impossible allocation)");
         }
     });
-    m.def("grids", &list_grids, py::arg("path"), "The grids of a file: name, value type, class.");
     m.def("save", &save, py::arg("path"), py::arg("name"), py::arg("out_path"),
           "Read one grid and write it in Volpath's brick layout to out_path.");
-    m.attr("openvdb_version") = openvdb::getLibraryVersionString();
 }
