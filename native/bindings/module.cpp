@@ -295,7 +295,8 @@ PYBIND11_MODULE(_core, m) {
         .def("add_medium_atmosphere",
              [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
                 double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
-                int pieces) {
+                int pieces, int sun_quadrature_steps) {
+                 if (sun_quadrature_steps < 0) throw std::invalid_argument("sun_quadrature_steps must be >= 0");
                  AtmosphereMedium a;
                  a.center = vec(center);
                  a.planet_radius = planet_radius, a.top_radius = top_radius;
@@ -304,11 +305,13 @@ PYBIND11_MODULE(_core, m) {
                  a.mie_g = g;
                  a.ozone_sigma_a = vec(ozone);
                  a.pieces = pieces;
+                 a.sun_quadrature_steps = sun_quadrature_steps;
                  return s.add_medium(a);
              },
              py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
              py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
-             py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4)
+             py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4,
+             py::arg("sun_quadrature_steps") = 16)
         .def("add_sun",
              [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
                  if (!(angular_radius > 0 && angular_radius < 0.5))

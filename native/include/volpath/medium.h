@@ -100,6 +100,9 @@ struct AtmosphereMedium {
     Spectrum ozone_sigma_a{0.650e-6, 1.881e-6, 0.085e-6};  // at the peak of the tent
     Real ozone_bottom = 10e3, ozone_peak = 25e3, ozone_top = 40e3;
     int pieces = 4;  // majorant pieces per ray segment (measured: 1-4 cost the same, 16 twice as much)
+    // Simpson intervals per majorant piece for shadow rays to the sun; 0 = ratio tracking
+    // (unbiased; kept for the accuracy study).
+    int sun_quadrature_steps = 16;
 
     Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }
     Real ozone_profile(Real h) const;

@@ -43,12 +43,13 @@ Features features_of(const TracerConfig &c) {
     return f;
 }
 
-// Simpson intervals per majorant piece of the air when shadow rays go to the sun.
-constexpr int kSunQuadratureSteps = 16;
-
-bool sun_through_air(const Light &light, const Medium &m) {
-    return std::holds_alternative<AtmosphereMedium>(m) &&
-           (std::holds_alternative<SunLight>(light) || std::holds_alternative<DirectionalLight>(light));
+// The number of Simpson intervals per majorant piece when a shadow ray goes to the sun
+// through the air; 0 where T is ratio tracked.
+int sun_quadrature_steps(const Light &light, const Medium &m) {
+    const auto *air = std::get_if<AtmosphereMedium>(&m);
+    if (!air || !(std::holds_alternative<SunLight>(light) || std::holds_alternative<DirectionalLight>(light)))
+        return 0;
+    return air->sun_quadrature_steps;
 }
 
 // Next-event estimation from a scattering point: choose a light uniformly, sample a
@@ -93,7 +94,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 // Phase sampling would have to fly through without colliding, unless the
                 // medium only absorbs, where both strategies apply T in closed form.
                 if (!is_black(h.sigma_s)) r_u *= T;
-            } else if (sun_through_air(scene.lights[light], m)) {
+            } else if (const int steps = sun_quadrature_steps(scene.lights[light], m)) {
                 // Toward the sun through the air, T by quadrature: at sunrise the shadow
                 // ray crosses an optical depth of tens, where ratio tracking's estimate is
                 // mostly noise. The error is the quadrature's: T within 0.05 % per unit of
@@ -101,7 +102,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 // (time x variance) on a sunrise sky.
                 // For the MIS weights as for homogeneous media: the phase strategy's chance
                 // to reach the disc is T. (Its hits of the 0.27-degree disc weigh ~1e-4.)
-                const Spectrum T = exp(-optical_depth(m, ray, t_end, kSunQuadratureSteps));
+                const Spectrum T = exp(-optical_depth(m, ray, t_end, steps));
                 T_ray *= T;
                 r_u *= T;
             } else {
