@@ -2,7 +2,7 @@
 
 For each scene: a high-spp Volpath reference; then each renderer renders at a ladder of
 sample counts (2 threads, the second of two renders timed, so Mitsuba's LLVM kernels are
-compiled beforehand, Cycles' scene synchronised) and its RMSE against the reference is
+compiled beforehand, Cycles' per-render scene synchronisation subtracted) and its RMSE against the reference is
 fitted as RMSE = a * t^b on log-log axes. The target error is what the fastest Mitsuba
 variant reaches at --target-spp; the table gives the time each renderer needs for it, and
 Volpath's ratio to the better peer. Cycles renders each scene's equivalent built through

@@ -21,29 +21,11 @@ import time
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "tests"))
 sys.path.insert(0, ROOT)
-from publish import publish  # noqa: E402  (bench/)
+from make_grids import cumulus_field, write_vdb  # noqa: E402  (bench/)
+from publish import publish  # noqa: E402
 
 import volpath  # noqa: E402
-
-
-def cumulus_field(res, seed=7):
-    """Round puffs in a layer (a fifth of the box's height): mostly empty, ~4 % active."""
-    rng = np.random.default_rng(seed)
-    d = np.zeros((res, res, res), np.float32)  # (z, y, x)
-    axis = (np.arange(res, dtype=np.float32) + 0.5) / res
-    for _ in range(60):
-        c = rng.uniform([0.1, 0.35, 0.1], [0.9, 0.5, 0.9])  # x, y (up), z
-        r = rng.uniform(0.03, 0.08)
-        lo = np.maximum(((c - r) * res).astype(int), 0)
-        hi = np.minimum(((c + r) * res).astype(int) + 1, res)
-        x, y, z = axis[lo[0]:hi[0]], axis[lo[1]:hi[1]], axis[lo[2]:hi[2]]
-        q = ((x[None, None, :] - c[0]) ** 2 + (y[None, :, None] - c[1]) ** 2 + (z[:, None, None] - c[2]) ** 2) / r ** 2
-        puff = np.clip(1 - q, 0, None) * 150.0  # sigma_t up to 150 per unit at a puff's centre
-        view = d[lo[2]:hi[2], lo[1]:hi[1], lo[0]:hi[0]]
-        np.maximum(view, puff, out=view)
-    return d
 
 
 MEMORY_CHILD = """
@@ -57,11 +39,9 @@ print(rss() - before, grid.nbytes, grid.dense_nbytes)
 
 
 def memory_section(tmp):
-    from blender_scenes import write_vdb
-
     cloud = cumulus_field(512)
     active = np.count_nonzero(cloud) / cloud.size
-    write_vdb(os.path.join(tmp, "cloud.vdb"), cloud.transpose(2, 1, 0), voxel_size=1 / 512)
+    write_vdb(os.path.join(tmp, "cloud.vdb"), cloud, voxel_size=1 / 512)
     del cloud
     out = subprocess.run([sys.executable, "-c", MEMORY_CHILD, os.path.join(tmp, "cloud.vdb")], capture_output=True,
                          text=True, check=True).stdout.split()

@@ -704,10 +704,11 @@ class _Builder:
         ground as a diffuse sphere. Lengths in metres times `unit` (metres per scene unit)."""
         preset = ATMOSPHERE_PRESETS[p.str("preset", "bruneton", tuple(ATMOSPHERE_PRESETS))]
         mode = p.str("mode", "rgb", ("rgb", "spectral"))
+        passes = p.int("spectral_passes", 4)  # checked in RGB mode too: a scene may switch
+        if not 1 <= passes <= 32:
+            raise p.error("'spectral_passes' must be in 1..32 (three wavelengths each)")
         if mode == "spectral":
-            self.spectral_passes = p.int("spectral_passes", 4)
-            if not 1 <= self.spectral_passes <= 32:
-                raise p.error("'spectral_passes' must be in 1..32 (three wavelengths each)")
+            self.spectral_passes = passes
         unit = p.float("unit", 1.0, positive=True)  # metres per scene unit
         R = p.float("planet_radius", preset["planet_radius"], positive=True) / unit
         H = p.float("atmosphere_height", preset["atmosphere_height"], positive=True) / unit

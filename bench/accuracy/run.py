@@ -1,19 +1,23 @@
 """What accuracy costs in time: error against a high-spp reference versus wall time, for
-each estimator and option, on the bench scenes; Mitsuba 3 in the same run where it can
-render the scene. Writes docs/accuracy.md and its PNG plots. References are cached in
+each estimator and option, on the bench scenes, a sparse VDB cloud and a sunrise sky (RGB
+and spectral); Mitsuba 3 and Cycles 5.0 in the same run where they can render the scene. Writes docs/accuracy.md and its PNG plots. References are cached in
 bench/cache/ so reruns are quick.
 
 Per scene and variant: renders at a ladder of sample counts (2 threads), RMSE against the
 reference, a log-log fit of RMSE against seconds, the bias that does not shrink with
 samples (from two independent high-spp renders), and the time to reach a common target
-error (the null-scattering tracer's error at the middle of the ladder).
+error (the reference estimator's error at the middle of the ladder). Mitsuba 3 and Cycles
+5.0 render the same scenes where they can (Mitsuba reads the bench files, Cycles renders
+their equivalents built through the bpy module).
 """
 
 import argparse
 import datetime
 import os
+import subprocess
 import sys
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,81 +32,133 @@ CACHE = os.path.join(ROOT, "bench", "cache")
 DOCS = os.path.join(ROOT, "docs")
 
 TRACERS = ["auto", "absorption", "single", "multiple", "nee_mis", "null_scattering"]
+NULL = {"tracer": "null_scattering"}
 
 
-def scene_list():
+class Study(NamedTuple):
+    """One scene of the study. Variants are (label, render keywords, scene options); scene
+    options are the bench file's parameters, plus `majorants` for the hetero cube (a
+    Volpath-only option kept out of the file that Mitsuba also reads). `peers` are (label,
+    make(path, res)) pairs of other renderers; `reference` is the reference's scene options
+    (its tracer is null_scattering)."""
+    name: str
+    desc: str
+    path: str
+    variants: list
+    peers: tuple = ()
+    options: dict = {}
+    reference: dict = {}
+
+
+def peers(key, mitsuba, cycles, path=None):
+    """Mitsuba 3's variants (where it can read the scene file) and Cycles (bench/cycles_scenes.py)."""
+    out = [(f"Mitsuba {v}", lambda p, res, v=v: cm.Mitsuba(v, p, res)) for v in mitsuba]
+    if cycles:
+        from cycles_scenes import Cycles
+
+        out.append(("Cycles", lambda p, res: Cycles(key, res, cm.THREADS)))
+    return tuple(out)
+
+
+def scene_list(mitsuba, cycles):
     bench = os.path.join(ROOT, "bench", "scenes")
     sky = os.path.join(ROOT, "scenes", "test", "sky.xml")
+    sunrise = {"elevation": 2, "azimuth": 60}
     out = []
     for key, (stem, desc) in cm.SCENES.items():
-        variants = [(t, {"tracer": t}, {}) for t in TRACERS if not (key == "d" and t in ("absorption", "single",
-                                                                                              "multiple", "nee_mis"))]
-        variants.append(("null_scattering, independent sampler", {"tracer": "null_scattering", "sampler": "independent"}, {}))
+        heterogeneous = key == "d"  # only the null-scattering tracer handles grids
+        variants = [(t, {"tracer": t}, {}) for t in TRACERS
+                    if not (heterogeneous and t in ("absorption", "single", "multiple", "nee_mis"))]
+        variants.append(("null_scattering, independent sampler", {**NULL, "sampler": "independent"}, {}))
         if key == "d":
-            variants += [(f"majorant grid {r}³" if r > 1 else "one global majorant",
-                          {"tracer": "null_scattering"}, {"majorants": r}) for r in (1, 8, 16)]
+            variants += [(f"majorant grid {r}³" if r > 1 else "one global majorant", NULL, {"majorants": r})
+                         for r in (1, 8, 16)]
         if key == "c":
             variants += [(f"nee_mis max_depth {d}", {"tracer": "nee_mis", "max_depth": d}, {}) for d in (2, 4, 8, 16)]
             variants += [("nee_mis no Russian roulette", {"tracer": "nee_mis", "rr_depth": 10 ** 6}, {})]
-        out.append((f"({key}) {stem}", desc, os.path.join(bench, f"{stem}.xml"), variants, True))
-    out.append(("sunrise sky", "Bruneton atmosphere, camera 2 m up, looking 60° away from the sun at 2° "
-                "elevation (the sun's disc, a sub-pixel emitter, would dominate any error measure), "
-                "multiple scattering",
-                sky, [("null_scattering (4 majorant pieces)", {"tracer": "null_scattering"}, {}),
-                      ("one majorant per ray", {"tracer": "null_scattering"}, {"pieces": 1}),
-                      ("16 majorant pieces", {"tracer": "null_scattering"}, {"pieces": 16}),
-                      ("single scattering (max_depth 2)", {"tracer": "null_scattering", "max_depth": 2}, {}),
-                      ("max_depth 4", {"tracer": "null_scattering", "max_depth": 4}, {}),
-                      ("auto", {"tracer": "auto"}, {}),
-                      ("independent sampler", {"tracer": "null_scattering", "sampler": "independent"}, {})], False))
+        out.append(Study(f"({key}) {stem}", desc, os.path.join(bench, f"{stem}.xml"), variants,
+                         peers(key, mitsuba, cycles)))
+    out.append(Study(
+        "sparse cloud", "128³ cumulus puffs read from a .vdb (about 4 % of the voxels active, σt up to 150), "
+        "albedo 0.98, g = 0.6, sun and sky, all orders of scattering",
+        os.path.join(bench, "cloud.xml"),
+        [("auto", {"tracer": "auto"}, {}),
+         ("null_scattering (automatic majorant grid)", NULL, {}),
+         ("one global majorant", NULL, {"majorants": 1}),
+         ("majorant grid 8³", NULL, {"majorants": 8}),
+         ("majorant grid 32³", NULL, {"majorants": 32}),
+         ("independent sampler", {**NULL, "sampler": "independent"}, {})],
+        peers("cloud", (), cycles)))  # Mitsuba 3 reads no .vdb
+    out.append(Study(
+        "sunrise sky", "Bruneton atmosphere, camera 2 m up, looking 60° away from the sun at 2° "
+        "elevation (the sun's disc, a sub-pixel emitter, would dominate any error measure), "
+        "multiple scattering", sky,
+        [("null_scattering (4 majorant pieces)", NULL, {}),
+         ("one majorant per ray", NULL, {"pieces": 1}),
+         ("16 majorant pieces", NULL, {"pieces": 16}),
+         ("sun transmittance ratio-tracked", NULL, {"sun": "tracking"}),
+         ("single scattering (max_depth 2)", {**NULL, "max_depth": 2}, {}),
+         ("max_depth 4", {**NULL, "max_depth": 4}, {}),
+         ("auto", {"tracer": "auto"}, {}),
+         ("independent sampler", {**NULL, "sampler": "independent"}, {})], options=sunrise))
+    out.append(Study(
+        "sunrise sky, spectral reference", "the same sky against a spectral-mode reference (4 passes of "
+        "3 wavelengths): RGB mode's colour bias against spectral mode's cost", sky,
+        [("rgb", NULL, {}),
+         ("spectral, 1 pass", NULL, {"mode": "spectral", "passes": 1}),
+         ("spectral, 4 passes", NULL, {"mode": "spectral"})],
+        options=sunrise, reference={"mode": "spectral"}))
     return out
 
 
-def load(path, res, params):
-    params = dict(params)
-    if "majorants" in params:
-        # Volpath-only option, kept out of the bench file that Mitsuba also reads.
-        text = open(path).read().replace(
+def load(study, res, options):
+    options = {**study.options, **options}
+    if "majorants" in options and study.name.startswith("(d)"):
+        text = open(study.path).read().replace(
             '<float name="scale" value="1.0"/>',
-            f'<float name="scale" value="1.0"/><integer name="majorant_resolution" value="{params.pop("majorants")}"/>')
-        return volpath.load_string(text, base_dir=os.path.dirname(path), res=res, **params)
-    if "sky" in path:
-        return volpath.load_file(path, res=res, elevation=2, azimuth=60, **params)
-    return volpath.load_file(path, res=res, **params)
+            f'<float name="scale" value="1.0"/><integer name="majorant_resolution" value="{options.pop("majorants")}"/>')
+        return volpath.load_string(text, base_dir=os.path.dirname(study.path), res=res, **options)
+    return volpath.load_file(study.path, res=res, **options)
 
 
-def render(path, res, params, kwargs, spp, seed):
-    scene = load(path, res, params)
+def render(study, res, options, kwargs, spp, seed):
+    """The image and its wall time; short renders are timed twice (the same seed, the same
+    image) and the faster time kept, since a busy moment of the machine weighs most there."""
+    scene = load(study, res, options)
     kw = dict(kwargs)
     if "rr_depth" in kw:
         scene.rr_depth = kw.pop("rr_depth")
-    start = time.perf_counter()
-    img = volpath.render(scene, spp=spp, seed=seed, threads=cm.THREADS, **kw)
-    return img.astype(np.float64), time.perf_counter() - start
+    seconds = []
+    while not seconds or (len(seconds) < 2 and sum(seconds) < 2.0):
+        start = time.perf_counter()
+        img = volpath.render(scene, spp=spp, seed=seed, threads=cm.THREADS, **kw)
+        seconds.append(time.perf_counter() - start)
+    return img.astype(np.float64), min(seconds)
 
 
-def reference(name, path, res, seconds):
+def reference(study, res, seconds):
     os.makedirs(CACHE, exist_ok=True)
-    file = os.path.join(CACHE, f"{name.replace(' ', '_').replace('(', '').replace(')', '')}_{res}.npz")
+    stem = study.name.replace(" ", "_").replace(",", "").replace("(", "").replace(")", "")
+    file = os.path.join(CACHE, f"{stem}_{res}.npz")
     if os.path.exists(file):
         return np.load(file)["image"]
-    _, t16 = render(path, res, {}, {"tracer": "null_scattering"}, 16, 1)
+    _, t16 = render(study, res, study.reference, NULL, 16, 1)
     spp = int(2 ** np.clip(np.round(np.log2(16 * seconds / max(t16, 1e-3))), 8, 16))
     print(f"  reference: {spp} spp", flush=True)
-    img, _ = render(path, res, {}, {"tracer": "null_scattering"}, spp, 999)
+    img, _ = render(study, res, study.reference, NULL, spp, 999)
     np.savez_compressed(file, image=img, spp=spp)
     return img
 
 
-def measure(path, res, params, kwargs, ladder, ref):
+def measure(study, res, options, kwargs, ladder, ref):
     pts = []
     for spp in ladder:
-        img, sec = render(path, res, params, kwargs, spp, spp)
+        img, sec = render(study, res, options, kwargs, spp, spp)
         pts.append((spp, sec, cm.rmse(img, ref)))
     # Bias: two independent renders at the top of the ladder; what their mean's error has
     # beyond the noise (estimated from their difference) does not shrink with samples.
-    a, _ = render(path, res, params, kwargs, ladder[-1], 7001)
-    b, _ = render(path, res, params, kwargs, ladder[-1], 7002)
+    a, _ = render(study, res, options, kwargs, ladder[-1], 7001)
+    b, _ = render(study, res, options, kwargs, ladder[-1], 7002)
     noise2 = np.mean((a - b) ** 2) / 4
     bias = float(np.sqrt(max(0.0, np.mean(((a + b) / 2 - ref) ** 2) - noise2)))
     return pts, bias
@@ -146,30 +202,39 @@ def main():
     ap.add_argument("--ladder", type=int, nargs="+", default=[4, 16, 64, 256])
     ap.add_argument("--ref-seconds", type=float, default=40)
     ap.add_argument("--only", help="substring of the scene names to run")
+    ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
     args = ap.parse_args()
+    if args.cycles:
+        try:
+            import bpy  # noqa: F401
+        except ImportError:
+            print("  (Cycles unavailable: no bpy module)")
+            args.cycles = False
+    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "make_grids.py")], check=True)
     os.makedirs(os.path.join(DOCS, "accuracy"), exist_ok=True)
-    variants_m = cm.mitsuba_variants()
     sections, summary = [], []
-    for name, desc, path, variants, mitsuba in scene_list():
-        if args.only and args.only not in name:
+    for study in scene_list(cm.mitsuba_variants(), args.cycles):
+        if args.only and args.only not in study.name:
             continue
-        print(name, flush=True)
-        ref = reference(name, path, args.res, args.ref_seconds)
+        print(study.name, flush=True)
+        ref = reference(study, args.res, args.ref_seconds)
         curves, biases = {}, {}
-        for label, kwargs, params in variants:
-            curves[label], biases[label] = measure(path, args.res, params, kwargs, args.ladder, ref)
-        if mitsuba:
-            for v in variants_m:
-                m = cm.Mitsuba(v, path, args.res)
-                label = f"Mitsuba {v}"
-                curves[label] = [(spp, *(lambda r: (r[1], cm.rmse(r[0], ref)))(m.render(spp, spp))) for spp in args.ladder]
-                biases[label] = None
+        for label, kwargs, options in study.variants:
+            curves[label], biases[label] = measure(study, args.res, options, kwargs, args.ladder, ref)
+        for label, make in study.peers:
+            renderer = make(study.path, args.res)
+            curves[label] = [(spp, sec, cm.rmse(img, ref))
+                             for spp in args.ladder for img, sec in [renderer.render(spp, spp)]]
+            biases[label] = None
+        # The common target: the reference estimator's error at the middle of the ladder.
         mid = args.ladder[len(args.ladder) // 2]
-        target = next(e for s, _, e in curves[next(l for l in curves if "null_scattering" in l)] if s == mid)
-        png = f"accuracy/{name.split(' ', 1)[-1].replace(' ', '_')}.png"
-        plot(name, curves, target, os.path.join(DOCS, png))
+        plain = next(l for l, kw, o in study.variants if kw == NULL and o == study.reference)
+        target = next(e for s, _, e in curves[plain] if s == mid)
+        png = f"accuracy/{study.name.split(' ', 1)[-1].replace(' ', '_').replace(',', '')}.png"
+        plot(study.name, curves, target, os.path.join(DOCS, png))
         times = {label: time_to(pts, target, biases[label]) for label, pts in curves.items()}
-        best_fixed = min((t for l, t in times.items() if t and l in TRACERS and l != "auto"), default=None)
+        fixed = [l for l, kw, o in study.variants if list(kw) == ["tracer"] and kw["tracer"] != "auto" and not o]
+        best_fixed = min((times[l] for l in fixed if times[l]), default=None)
         rows = []
         for label, pts in curves.items():
             t = times[label]
@@ -179,13 +244,14 @@ def main():
                         f"{'—' if bias is None else '%.3g' % bias} | " +
                         " · ".join(f"{s}: {e:.3g} in {sec:.2f} s" for s, sec, e in pts) + " |")
         mean = float(ref.mean())
-        sections.append(f"### {name}\n\n{desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
-                        f"({target / mean:.1%} of the mean).\n\n![{name}]({png})\n\n"
+        sections.append(f"### {study.name}\n\n{study.desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
+                        f"({target / mean:.1%} of the mean).\n\n![{study.name}]({png})\n\n"
                         "| estimator | seconds to target | slope | bias | spp: RMSE in time |\n|---|---|---|---|---|\n"
                         + "\n".join(rows) + "\n")
         if "auto" in times and best_fixed:
             a = times["auto"]
-            summary.append(f"| {name} | {'%.3g' % a if a else 'never'} | {best_fixed:.3g} | "
+            best = min((l for l in fixed if times[l]), key=lambda l: times[l])
+            summary.append(f"| {study.name} | {'%.3g' % a if a else 'never'} | {best_fixed:.3g} ({best}) | "
                            f"{'%.2f' % (a / best_fixed) if a else '—'} |")
     date = datetime.date.today().isoformat()
     text = (f"# What accuracy costs in time\n\nProduced by `make accuracy` (bench/accuracy/run.py) on {date}, "
@@ -197,7 +263,11 @@ def main():
             "an estimator that leaves physics out (absorption only, single scattering, a depth limit) "
             "flattens at its bias, listed in the tables (the bias estimate includes the reference's own "
             "noise, so unbiased estimators show a small floor too). 'Seconds to target' comes from the "
-            "fit and is 'never' where the bias exceeds the target.\n\n"
+            "fit and is 'never' where the bias exceeds the target. Renders under 2 s are timed twice "
+            "and the faster kept. Mitsuba 3 renders the bench files themselves; Cycles 5.0 renders "
+            "each scene rebuilt through the `bpy` module (bench/cycles_scenes.py), so its curve "
+            "also shows how far its scene and conventions differ from Volpath's (a floor at the "
+            "difference).\n\n"
             "## auto against the best fixed tracer\n\n| scene | auto s | best fixed s | ratio |\n|---|---|---|---|\n"
             + "\n".join(summary) + "\n\n## Scenes\n\n" + "\n".join(sections))
     with open(os.path.join(DOCS, "accuracy.md"), "w") as f:
