@@ -1,7 +1,9 @@
 """What accuracy costs in time: error against a high-spp reference versus wall time, for
 each estimator and option, on the bench scenes, a sparse VDB cloud and a sunrise sky (RGB
-and spectral); Mitsuba 3 and Cycles 5.0 in the same run where they can render the scene. Writes docs/accuracy.md and its PNG plots. References are cached in
-bench/cache/ so reruns are quick.
+and spectral); Mitsuba 3 and Cycles 5.0 in the same run where they can render the scene.
+Writes docs/accuracy.md and its PNG plots. References are cached in bench/cache/ so reruns
+are quick, and so are the measurements: `--only` re-measures some scenes and reuses the
+others', `--report-only` rewrites the report from them.
 
 Per scene and variant: renders at a ladder of sample counts (2 threads), RMSE against the
 reference, a log-log fit of RMSE against seconds, the bias that does not shrink with
@@ -13,6 +15,7 @@ their equivalents built through the bpy module).
 
 import argparse
 import datetime
+import json
 import os
 import subprocess
 import sys
@@ -136,10 +139,12 @@ def render(study, res, options, kwargs, spp, seed):
     return img.astype(np.float64), min(seconds)
 
 
+def _stem(study):
+    return study.name.replace(" ", "_").replace(",", "").replace("(", "").replace(")", "")
+
+
 def reference(study, res, seconds):
-    os.makedirs(CACHE, exist_ok=True)
-    stem = study.name.replace(" ", "_").replace(",", "").replace("(", "").replace(")", "")
-    file = os.path.join(CACHE, f"{stem}_{res}.npz")
+    file = os.path.join(CACHE, f"{_stem(study)}_{res}.npz")
     if os.path.exists(file):
         return np.load(file)["image"]
     _, t16 = render(study, res, study.reference, NULL, 16, 1)
@@ -182,8 +187,9 @@ def plot(name, curves, target, file):
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=110)
     colours = plt.get_cmap("tab20")
     for i, (label, pts) in enumerate(curves.items()):
-        # Twenty distinct colours, and dashes for Mitsuba, so no two curves look alike.
-        ax.loglog([s for _, s, _ in pts], [e for _, _, e in pts], "o--" if "Mitsuba" in label else "o-", ms=3,
+        # Twenty distinct colours, and dashes for the peers, so no two curves look alike.
+        peer = label.startswith(("Mitsuba", "Cycles"))
+        ax.loglog([s for _, s, _ in pts], [e for _, _, e in pts], "o--" if peer else "o-", ms=3,
                   color=colours(i % 20), label=label)
     ax.axhline(target, color="grey", lw=0.8, ls="--", label="target error")
     ax.set_xlabel("seconds (2 threads)")
@@ -196,63 +202,118 @@ def plot(name, curves, target, file):
     plt.close(fig)
 
 
+def summary_plot(rows, file):
+    """Seconds to each scene's target error: auto, the best fixed tracer, and each peer's best."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = [("auto", "o"), ("best fixed tracer", "s"), ("Mitsuba 3 (faster variant)", "^"), ("Cycles 5.0", "D")]
+    fig, ax = plt.subplots(figsize=(8.4, 0.45 * len(rows) + 1.4), dpi=110)
+    for j, (label, marker) in enumerate(series):
+        # A dot per scene and series (bars would mislead on a log axis).
+        xs = [row[1][j] or np.nan for row in rows]
+        ax.plot(xs, np.arange(len(rows)) + 0.12 * (j - 1.5), marker, ls="none", ms=6, label=label,
+                color=plt.get_cmap("tab10")(j))
+    ax.set_yticks(range(len(rows)), [row[0] for row in rows], fontsize=8)
+    ax.set_ylim(len(rows) - 0.5, -0.5)
+    ax.set_xscale("log")
+    ax.set_xlabel("seconds to the scene's target error (2 threads; shorter is better)")
+    ax.grid(True, axis="x", which="both", lw=0.3)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1))
+    fig.tight_layout()
+    fig.savefig(file)
+    plt.close(fig)
+
+
+def measure_study(study, args):
+    """Curves and biases of every variant and peer, and the target error; saved as JSON."""
+    ref = reference(study, args.res, args.ref_seconds)
+    curves, biases = {}, {}
+    for label, kwargs, options in study.variants:
+        curves[label], biases[label] = measure(study, args.res, options, kwargs, args.ladder, ref)
+    for label, make in study.peers:
+        renderer = make(study.path, args.res)
+        curves[label] = [(spp, sec, cm.rmse(img, ref)) for spp in args.ladder for img, sec in [renderer.render(spp, spp)]]
+        biases[label] = None
+    # The common target: the reference estimator's error at the middle of the ladder.
+    mid = args.ladder[len(args.ladder) // 2]
+    plain = next(l for l, kw, o in study.variants if kw == NULL and o == study.reference)
+    target = next(e for s, _, e in curves[plain] if s == mid)
+    return {"curves": curves, "biases": biases, "target": target, "mean": float(ref.mean())}
+
+
+def report(study, result):
+    """The study's Markdown section (and its plot), and its (auto, best fixed, Mitsuba,
+    Cycles) seconds to target for the summary."""
+    curves, biases, target = result["curves"], result["biases"], result["target"]
+    png = f"accuracy/{study.name.split(' ', 1)[-1].replace(' ', '_').replace(',', '')}.png"
+    plot(study.name, curves, target, os.path.join(DOCS, png))
+    times = {label: time_to(pts, target, biases[label]) for label, pts in curves.items()}
+    rows = []
+    for label, pts in curves.items():
+        t, bias = times[label], biases[label]
+        slope = cm.fit([(s, e) for _, s, e in pts])[1]
+        rows.append(f"| {label} | {'%.3g' % t if t else 'never (bias)'} | {slope:.2f} | "
+                    f"{'—' if bias is None else '%.3g' % bias} | " +
+                    " · ".join(f"{s}: {e:.3g} in {sec:.2f} s" for s, sec, e in pts) + " |")
+    mean = result["mean"]
+    section = (f"### {study.name}\n\n{study.desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
+               f"({target / mean:.1%} of the mean).\n\n![{study.name}]({png})\n\n"
+               "| estimator | seconds to target | slope | bias | spp: RMSE in time |\n|---|---|---|---|---|\n"
+               + "\n".join(rows) + "\n")
+    fixed = [l for l, kw, o in study.variants if list(kw) == ["tracer"] and kw["tracer"] != "auto" and not o]
+    best = min((l for l in fixed if times.get(l)), key=lambda l: times[l], default=None)
+    mitsuba = min((t for l, t in times.items() if l.startswith("Mitsuba") and t), default=None)
+    summary = None
+    if "auto" in times and best:
+        summary = (times["auto"], times[best], mitsuba, times.get("Cycles"), best)
+    return section, summary
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--ladder", type=int, nargs="+", default=[4, 16, 64, 256])
     ap.add_argument("--ref-seconds", type=float, default=40)
-    ap.add_argument("--only", help="substring of the scene names to run")
+    ap.add_argument("--only", help="substring of the scene names to measure (the others' saved measurements are reused)")
+    ap.add_argument("--report-only", action="store_true", help="write docs/accuracy.md from the saved measurements")
     ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
     args = ap.parse_args()
-    if args.cycles:
+    if args.cycles and not args.report_only:
         try:
             import bpy  # noqa: F401
         except ImportError:
             print("  (Cycles unavailable: no bpy module)")
             args.cycles = False
-    subprocess.run([sys.executable, os.path.join(ROOT, "bench", "make_grids.py")], check=True)
+    if not args.report_only:
+        subprocess.run([sys.executable, os.path.join(ROOT, "bench", "make_grids.py")], check=True)
     os.makedirs(os.path.join(DOCS, "accuracy"), exist_ok=True)
+    os.makedirs(CACHE, exist_ok=True)
     sections, summary = [], []
-    for study in scene_list(cm.mitsuba_variants(), args.cycles):
-        if args.only and args.only not in study.name:
+    for study in scene_list([] if args.report_only else cm.mitsuba_variants(), args.cycles and not args.report_only):
+        saved = os.path.join(CACHE, f"accuracy_{_stem(study)}_{args.res}.json")
+        if not args.report_only and (not args.only or args.only in study.name):
+            print(study.name, flush=True)
+            result = dict(measure_study(study, args), ladder=args.ladder, date=datetime.date.today().isoformat(),
+                          machine=cm.machine())
+            with open(saved, "w") as f:
+                json.dump(result, f)
+        elif os.path.exists(saved):
+            with open(saved) as f:
+                result = json.load(f)
+        else:
+            print(f"{study.name}: no saved measurement at {args.res}², left out")
             continue
-        print(study.name, flush=True)
-        ref = reference(study, args.res, args.ref_seconds)
-        curves, biases = {}, {}
-        for label, kwargs, options in study.variants:
-            curves[label], biases[label] = measure(study, args.res, options, kwargs, args.ladder, ref)
-        for label, make in study.peers:
-            renderer = make(study.path, args.res)
-            curves[label] = [(spp, sec, cm.rmse(img, ref))
-                             for spp in args.ladder for img, sec in [renderer.render(spp, spp)]]
-            biases[label] = None
-        # The common target: the reference estimator's error at the middle of the ladder.
-        mid = args.ladder[len(args.ladder) // 2]
-        plain = next(l for l, kw, o in study.variants if kw == NULL and o == study.reference)
-        target = next(e for s, _, e in curves[plain] if s == mid)
-        png = f"accuracy/{study.name.split(' ', 1)[-1].replace(' ', '_').replace(',', '')}.png"
-        plot(study.name, curves, target, os.path.join(DOCS, png))
-        times = {label: time_to(pts, target, biases[label]) for label, pts in curves.items()}
-        fixed = [l for l, kw, o in study.variants if list(kw) == ["tracer"] and kw["tracer"] != "auto" and not o]
-        best_fixed = min((times[l] for l in fixed if times[l]), default=None)
-        rows = []
-        for label, pts in curves.items():
-            t = times[label]
-            slope = cm.fit([(s, e) for _, s, e in pts])[1]
-            bias = biases[label]
-            rows.append(f"| {label} | {'%.3g' % t if t else 'never (bias)'} | {slope:.2f} | "
-                        f"{'—' if bias is None else '%.3g' % bias} | " +
-                        " · ".join(f"{s}: {e:.3g} in {sec:.2f} s" for s, sec, e in pts) + " |")
-        mean = float(ref.mean())
-        sections.append(f"### {study.name}\n\n{study.desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
-                        f"({target / mean:.1%} of the mean).\n\n![{study.name}]({png})\n\n"
-                        "| estimator | seconds to target | slope | bias | spp: RMSE in time |\n|---|---|---|---|---|\n"
-                        + "\n".join(rows) + "\n")
-        if "auto" in times and best_fixed:
-            a = times["auto"]
-            best = min((l for l in fixed if times[l]), key=lambda l: times[l])
-            summary.append(f"| {study.name} | {'%.3g' % a if a else 'never'} | {best_fixed:.3g} ({best}) | "
-                           f"{'%.2f' % (a / best_fixed) if a else '—'} |")
+        section, times = report(study, result)
+        sections.append(section)
+        if times:
+            summary.append((study.name, times))
+    summary_plot(summary, os.path.join(DOCS, "accuracy", "summary.png"))
+    fmt = lambda t: "%.3g" % t if t else "—"  # noqa: E731
+    table = "\n".join(f"| {name} | {fmt(a)} | {fmt(b)} ({best}) | {'%.2f' % (a / b) if a else '—'} | {fmt(m)} | {fmt(c)} |"
+                       for name, (a, b, m, c, best) in summary)
     date = datetime.date.today().isoformat()
     text = (f"# What accuracy costs in time\n\nProduced by `make accuracy` (bench/accuracy/run.py) on {date}, "
             f"{cm.machine()}; {args.res}×{args.res} pixels, {cm.THREADS} threads, spp ladder "
@@ -265,11 +326,12 @@ def main():
             "noise, so unbiased estimators show a small floor too). 'Seconds to target' comes from the "
             "fit and is 'never' where the bias exceeds the target. Renders under 2 s are timed twice "
             "and the faster kept. Mitsuba 3 renders the bench files themselves; Cycles 5.0 renders "
-            "each scene rebuilt through the `bpy` module (bench/cycles_scenes.py), so its curve "
-            "also shows how far its scene and conventions differ from Volpath's (a floor at the "
-            "difference).\n\n"
-            "## auto against the best fixed tracer\n\n| scene | auto s | best fixed s | ratio |\n|---|---|---|---|\n"
-            + "\n".join(summary) + "\n\n## Scenes\n\n" + "\n".join(sections))
+            "each scene rebuilt through the `bpy` module (bench/cycles_scenes.py; its per-render scene "
+            "synchronisation is not counted), so its curve also shows how far its scene and conventions "
+            "differ from Volpath's (a floor at the difference).\n\n"
+            "## Seconds to each scene's target error\n\n![summary](accuracy/summary.png)\n\n"
+            "| scene | auto s | best fixed tracer s | auto / best | Mitsuba 3 s | Cycles s |\n"
+            "|---|---|---|---|---|---|\n" + table + "\n\n## Scenes\n\n" + "\n".join(sections))
     with open(os.path.join(DOCS, "accuracy.md"), "w") as f:
         f.write(text)
     print(text)
