@@ -1,9 +1,12 @@
 """Blender side of the pipeline: the scene once, and per frame what moves (the suns'
-directions, the camera, the grids of VDB sequences), as an animation directory that
+directions, the camera, the grids of VDB sequences: each frame's .vdb copied), as an animation directory that
 volpath.frames renders."""
 
 import json
 import os
+import shutil
+
+import numpy as np
 
 from volpath.frames import ANIMATION_FILE
 
@@ -43,7 +46,9 @@ def prepare_run(scene, frames, out_dir, options, progress=None, cancel=None):
 
 
 def _volume_sequences(scene, sequences, frames, directory):
-    """Per frame, the grids of every VDB sequence, written as .vol files beside the scene."""
+    """Per frame, the grids of every VDB sequence beside the scene: a copy of the frame's
+    .vdb where volpath reads it sparse, a dense .vol for emitting volumes (whose radiance is
+    computed voxel by voxel in Blender)."""
     import bpy
     from volpath.grids import write_vol
 
@@ -61,11 +66,19 @@ def _volume_sequences(scene, sequences, frames, directory):
                     raise export.ExportError(f"volume '{name}': no active voxels at frame {entry['frame']}")
                 grids = {"to_world": shape["to_world"].tolist()}
                 for grid in ("density", "radiance"):
-                    if grid in shape["interior"]:
-                        rel = f"volumes/{key}_{grid}_{entry['frame']:04d}.vol"
-                        volume = shape["interior"][grid]  # a volpath.VolumeGrid
-                        write_vol(os.path.join(directory, rel), volume.numpy())
-                        grids[grid] = {"filename": rel, "to_world": volume.to_world.tolist()}
+                    if grid not in shape["interior"]:
+                        continue
+                    volume = shape["interior"][grid]  # a volpath.VolumeGrid
+                    stem = f"volumes/{key}_{grid}_{entry['frame']:04d}"
+                    if volume.vdb:
+                        path, vdb_grid, to_world = volume.vdb
+                        shutil.copyfile(path, os.path.join(directory, stem + ".vdb"))
+                        grids[grid] = {"type": "vdbvolume", "filename": stem + ".vdb", "grid": vdb_grid,
+                                       "to_world": np.asarray(to_world).tolist()}
+                    else:
+                        write_vol(os.path.join(directory, stem + ".vol"), volume.numpy())
+                        grids[grid] = {"type": "gridvolume", "filename": stem + ".vol",
+                                       "to_world": volume.to_world.tolist()}
                 entry["volumes"][key] = grids
     finally:
         scene.frame_set(current)

@@ -6,9 +6,10 @@ An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
 
     {"suns": {"<scene key>": "<Blender object>"},
      "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4,
-                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {"filename", "to_world"}}}}, ...]}
+                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...]}
 
-(``volumes`` only for VDB sequences: their grids at that frame, as .vol files.)
+(``volumes`` only for VDB sequences: their grids at that frame, as scene-language volumes:
+a ``vdbvolume`` copy of the frame's .vdb, or a ``gridvolume`` .vol for emitting volumes.)
 
 ``render_frame`` is what a worker runs (a local process or a Dask worker): it needs only
 this package, never Blender. The animation arrives as a directory path or, for workers on
@@ -113,8 +114,7 @@ def frame_dictionary(d, animation, entry):
         for grid in ("density", "radiance"):
             interior.pop(grid, None)
             if grid in grids:
-                interior[grid] = {"type": "gridvolume", "filename": grids[grid]["filename"],
-                                  "to_world": np.asarray(grids[grid]["to_world"], dtype=np.float64)}
+                interior[grid] = dict(grids[grid], to_world=np.asarray(grids[grid]["to_world"], dtype=np.float64))
         d[key] = dict(d[key], interior=interior, to_world=np.asarray(grids["to_world"], dtype=np.float64))
     return d
 

@@ -161,8 +161,8 @@ def test_resume_rerenders_frames_of_another_size_or_spp(tmp_path):
 
 
 def test_vdb_sequence_changes_with_the_frame(tmp_path):
-    """A two-file VDB sequence: each pipeline frame renders that frame's grid, the same
-    bits as rendering the scene exported at that frame."""
+    """A two-file VDB sequence: each pipeline frame renders that frame's grid (a copy of
+    its .vdb, read sparse), the same bits as rendering the scene exported at that frame."""
     from blender_scenes import add_camera, add_volume, blank_scene, set_background, volume_material, write_vdb
 
     from addon.export import export_scene
@@ -181,6 +181,9 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
     set_background(scene, (1, 1, 1))
     scene.volpath.tracer = "null_scattering"
     export_animation(scene, [1, 2], str(tmp_path / "anim"))
+    copies = sorted(os.listdir(tmp_path / "anim" / "volumes"))
+    per_frame = [c for c in copies if c.endswith(("_density_0001.vdb", "_density_0002.vdb"))]
+    assert len(per_frame) == 2 and not [c for c in copies if c.endswith(".vol")], copies
     images = []
     for frame in (1, 2):
         image, _ = render_frame(str(tmp_path / "anim"), frame, 4, "null_scattering")
