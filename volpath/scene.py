@@ -736,15 +736,15 @@ class _Builder:
         pieces = p.int("majorant_pieces", 4)
         if not 1 <= pieces <= 16:
             raise p.error("'majorant_pieces' must be in 1..16")
-        # Shadow rays to the sun: Simpson's rule, 16 intervals per piece, or ratio tracking.
-        sun_steps = {"quadrature": 16, "tracking": 0}[p.str("sun_transmittance", "quadrature", ("quadrature", "tracking"))]
+        # Shadow rays to the sun: a table of optical depths, Simpson's rule, or ratio tracking.
+        sun = p.str("sun_transmittance", "table", ("table", "quadrature", "tracking"))
         albedo = p.rgb("ground_albedo", preset["ground_albedo"])
         if np.any(albedo > 1):
             raise p.error("'ground_albedo' must be at most 1")
         n = self.native
         index = n.add_medium_atmosphere(tuple(center), R, R + H, tuple(rayleigh), h_r, tuple(mie_s),
                                         tuple(mie_t - mie_s), h_m, g,
-                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun_steps)
+                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun)
         n.add_sphere(tuple(center), R + H, False, n.add_bsdf_null(), interior=index, exterior=-1,
                      medium_interface=True)
         if p.bool("ground", True):

@@ -295,9 +295,13 @@ PYBIND11_MODULE(_core, m) {
         .def("add_medium_atmosphere",
              [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
                 double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
-                int pieces, int sun_quadrature_steps) {
-                 if (sun_quadrature_steps < 0) throw std::invalid_argument("sun_quadrature_steps must be >= 0");
+                int pieces, const std::string &sun_transmittance) {
                  AtmosphereMedium a;
+                 using S = AtmosphereMedium::SunTransmittance;
+                 if (sun_transmittance == "table") a.sun_transmittance = S::Table;
+                 else if (sun_transmittance == "quadrature") a.sun_transmittance = S::Quadrature;
+                 else if (sun_transmittance == "tracking") a.sun_transmittance = S::Tracking;
+                 else throw std::invalid_argument("sun_transmittance must be table, quadrature or tracking");
                  a.center = vec(center);
                  a.planet_radius = planet_radius, a.top_radius = top_radius;
                  a.rayleigh_sigma_s = vec(rayleigh), a.rayleigh_height = rayleigh_height;
@@ -305,13 +309,12 @@ PYBIND11_MODULE(_core, m) {
                  a.mie_g = g;
                  a.ozone_sigma_a = vec(ozone);
                  a.pieces = pieces;
-                 a.sun_quadrature_steps = sun_quadrature_steps;
                  return s.add_medium(a);
              },
              py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
              py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
              py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4,
-             py::arg("sun_quadrature_steps") = 16)
+             py::arg("sun_transmittance") = "table")
         .def("add_sun",
              [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
                  if (!(angular_radius > 0 && angular_radius < 0.5))
@@ -472,6 +475,11 @@ PYBIND11_MODULE(_core, m) {
         double t0, t1;
         if (!sphere_roots(vec(center), radius, vec(o), normalize(vec(d)), t0, t1)) return py::none();
         return py::make_tuple(t0, t1);
+    });
+    // The optical depth a shadow ray to the sun takes through the air (table or quadrature).
+    m.def("sun_optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
+        const Spectrum tau = sun_optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
+        return std::array<double, 3>{tau.x, tau.y, tau.z};
     });
     m.def("optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int steps) {
         const Spectrum tau = optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max},

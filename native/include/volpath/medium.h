@@ -100,11 +100,19 @@ struct AtmosphereMedium {
     Spectrum ozone_sigma_a{0.650e-6, 1.881e-6, 0.085e-6};  // at the peak of the tent
     Real ozone_bottom = 10e3, ozone_peak = 25e3, ozone_top = 40e3;
     int pieces = 4;  // majorant pieces per ray segment (measured: 1-4 cost the same, 16 twice as much)
-    // Simpson intervals per majorant piece for shadow rays to the sun; 0 = ratio tracking
-    // (unbiased; kept for the accuracy study).
-    int sun_quadrature_steps = 16;
+    // Shadow rays to the sun: optical depth to the top of the atmosphere from a table over
+    // (altitude, direction) built by prepare_medium; Simpson's rule on each ray; or ratio
+    // tracking (unbiased; kept for the accuracy study).
+    enum class SunTransmittance { Table, Quadrature, Tracking } sun_transmittance = SunTransmittance::Table;
+    // Optical depth to the top, kTableR x kTableMu entries (Bruneton 2017's parametrisation:
+    // x_r = rho / H, x_mu = where the distance to the top lies between its extremes).
+    static constexpr int kTableR = 256, kTableMu = 256;
+    std::vector<Spectrum> tau_to_top;
 
     Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }
+    // Optical depth from p along d to the top of the atmosphere, from the table; false
+    // where the table does not apply (d meets the ground, p outside the shell).
+    bool tabulated_tau_to_top(const Vec3 &p, const Vec3 &d, Spectrum &tau) const;
     Real ozone_profile(Real h) const;
     void densities(Real h, Real &rayleigh, Real &mie, Real &ozone) const;
 };
@@ -157,6 +165,12 @@ private:
 // Optical depth along [ray.t_min, t_max] by composite Simpson quadrature with `steps`
 // intervals on each majorant piece (a deterministic reference for the tests).
 Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps);
+
+// Optical depth of a shadow ray toward the sun through the air over [ray.t_min, t_max]:
+// from the table where the segment runs to the top of the atmosphere, else by Simpson's
+// rule with kSunQuadratureSteps intervals per majorant piece.
+constexpr int kSunQuadratureSteps = 16;
+Spectrum sun_optical_depth(const Medium &m, const Ray &ray, Real t_max);
 
 // Majorant optical depth over [ray.t_min, t_max], per channel.
 Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max);

@@ -43,13 +43,12 @@ Features features_of(const TracerConfig &c) {
     return f;
 }
 
-// The number of Simpson intervals per majorant piece when a shadow ray goes to the sun
-// through the air; 0 where T is ratio tracked.
-int sun_quadrature_steps(const Light &light, const Medium &m) {
+// Whether a shadow ray to `light` crosses `m` with a deterministic transmittance (the sun
+// through the air, unless set to ratio tracking).
+bool sun_through_air(const Light &light, const Medium &m) {
     const auto *air = std::get_if<AtmosphereMedium>(&m);
-    if (!air || !(std::holds_alternative<SunLight>(light) || std::holds_alternative<DirectionalLight>(light)))
-        return 0;
-    return air->sun_quadrature_steps;
+    return air && air->sun_transmittance != AtmosphereMedium::SunTransmittance::Tracking &&
+           (std::holds_alternative<SunLight>(light) || std::holds_alternative<DirectionalLight>(light));
 }
 
 // Next-event estimation from a scattering point: choose a light uniformly, sample a
@@ -94,15 +93,14 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 // Phase sampling would have to fly through without colliding, unless the
                 // medium only absorbs, where both strategies apply T in closed form.
                 if (!is_black(h.sigma_s)) r_u *= T;
-            } else if (const int steps = sun_quadrature_steps(scene.lights[light], m)) {
-                // Toward the sun through the air, T by quadrature: at sunrise the shadow
-                // ray crosses an optical depth of tens, where ratio tracking's estimate is
-                // mostly noise. The error is the quadrature's: T within 0.05 % per unit of
-                // optical depth (tests/native/test_atmosphere.py); 1.5x the efficiency
-                // (time x variance) on a sunrise sky.
+            } else if (sun_through_air(scene.lights[light], m)) {
+                // Toward the sun through the air, T from a table (or by quadrature): at
+                // sunrise the shadow ray crosses an optical depth of tens, where ratio
+                // tracking's estimate is mostly noise. The error is the table's: T within
+                // 0.05 % per unit of optical depth (tests/native/test_atmosphere.py).
                 // For the MIS weights as for homogeneous media: the phase strategy's chance
                 // to reach the disc is T. (Its hits of the 0.27-degree disc weigh ~1e-4.)
-                const Spectrum T = exp(-optical_depth(m, ray, t_end, steps));
+                const Spectrum T = exp(-sun_optical_depth(m, ray, t_end));
                 T_ray *= T;
                 r_u *= T;
             } else {

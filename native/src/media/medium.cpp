@@ -73,6 +73,56 @@ void AtmosphereMedium::densities(Real h, Real &rayleigh, Real &mie, Real &ozone)
 }
 
 namespace {
+// Bruneton 2017's coordinates of the transmittance table: x_r from the ground (0) to the
+// top (1) by rho = sqrt(r^2 - R^2); x_mu by where the distance d to the top lies between
+// its least (straight up) and greatest (along the horizon) values. Smooth in both.
+struct TableCoordinates {
+    Real H, rho, r, d_min, d_max;
+    TableCoordinates(const AtmosphereMedium &m, Real r_) {
+        const Real R = m.planet_radius, Rt = m.top_radius;
+        H = std::sqrt(Rt * Rt - R * R);
+        r = std::clamp(r_, R, Rt);
+        rho = std::sqrt(std::max(r * r - R * R, 0.0));
+        d_min = Rt - r, d_max = rho + H;
+    }
+    Real distance_to_top(const AtmosphereMedium &m, Real mu) const {
+        const Real Rt = m.top_radius;
+        return std::max(0.0, -r * mu + std::sqrt(std::max(r * r * (mu * mu - 1) + Rt * Rt, 0.0)));
+    }
+};
+
+// Optical depth from radius r along a direction of cosine mu (to the local zenith) over
+// distance d, by Simpson's rule: altitude along the ray is sqrt(r^2 + t^2 + 2 r mu t) - R.
+Spectrum tau_along(const AtmosphereMedium &m, Real r, Real mu, Real d, int steps) {
+    Spectrum tau(0.0);
+    const Real h = d / steps;
+    for (int k = 0; k <= steps; ++k) {
+        const Real t = k * h;
+        Real rayleigh, mie, ozone;
+        m.densities(std::sqrt(std::max(r * r + t * t + 2 * r * mu * t, 0.0)) - m.planet_radius, rayleigh, mie, ozone);
+        const Spectrum sigma_t = m.rayleigh_sigma_s * rayleigh + (m.mie_sigma_s + m.mie_sigma_a) * mie + m.ozone_sigma_a * ozone;
+        tau += sigma_t * (((k == 0 || k == steps) ? 1.0 : (k % 2 ? 4.0 : 2.0)) * h / 3.0);
+    }
+    return tau;
+}
+
+void build_tau_table(AtmosphereMedium &m) {
+    constexpr int NR = AtmosphereMedium::kTableR, NMU = AtmosphereMedium::kTableMu;
+    // 256 Simpson intervals per entry: the integral's error is far below the table's.
+    constexpr int kSteps = 64;
+    m.tau_to_top.assign(size_t(NR) * NMU, Spectrum(0.0));
+    const Real R = m.planet_radius;
+    for (int i = 0; i < NR; ++i) {
+        const Real H = std::sqrt(m.top_radius * m.top_radius - R * R), rho = H * i / (NR - 1);
+        const TableCoordinates c(m, std::sqrt(rho * rho + R * R));
+        for (int j = 0; j < NMU; ++j) {
+            const Real d = c.d_min + (c.d_max - c.d_min) * j / (NMU - 1);
+            const Real mu = d == 0 ? 1.0 : std::clamp((H * H - c.rho * c.rho - d * d) / (2 * c.r * d), -1.0, 1.0);
+            m.tau_to_top[size_t(i) * NMU + j] = tau_along(m, c.r, mu, d, kSteps);
+        }
+    }
+}
+
 struct Properties {
     const Vec3 &p;
     MediumProperties operator()(const HomogeneousMedium &m) const { return {m.sigma_a, m.sigma_s, m.Le}; }
@@ -159,6 +209,25 @@ struct ListPieces {
 };
 }  // namespace
 
+bool AtmosphereMedium::tabulated_tau_to_top(const Vec3 &p, const Vec3 &d, Spectrum &tau) const {
+    if (tau_to_top.empty()) return false;
+    const Vec3 v = p - center;
+    const Real r = length(v);
+    if (r > top_radius * (1 + 1e-9)) return false;
+    const Real mu = dot(v, d) / r, R = planet_radius;
+    if (mu < 0 && r * r * (mu * mu - 1) + R * R >= 0) return false;  // d meets the ground
+    const TableCoordinates c(*this, r);
+    const Real x_r = c.rho / c.H;
+    const Real x_mu = c.d_max > c.d_min ? (c.distance_to_top(*this, mu) - c.d_min) / (c.d_max - c.d_min) : 0.0;
+    // Bilinear between the entries around (x_r, x_mu).
+    const Real u = std::clamp(x_r, 0.0, 1.0) * (kTableR - 1), w = std::clamp(x_mu, 0.0, 1.0) * (kTableMu - 1);
+    const int i = std::min(int(u), kTableR - 2), j = std::min(int(w), kTableMu - 2);
+    const Real fu = u - i, fw = w - j;
+    const Spectrum *row0 = &tau_to_top[size_t(i) * kTableMu + j], *row1 = row0 + kTableMu;
+    tau = (row0[0] * (1 - fw) + row0[1] * fw) * (1 - fu) + (row1[0] * (1 - fw) + row1[1] * fw) * fu;
+    return true;
+}
+
 bool is_emissive(const Medium &m) {
     if (const auto *h = std::get_if<HomogeneousMedium>(&m)) return !is_black(h->Le) && !is_black(h->sigma_a);
     if (const auto *g = std::get_if<GridMedium>(&m)) return !is_black(g->Le_scale);
@@ -212,6 +281,9 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
 }  // namespace
 
 void prepare_medium(Medium &m) {
+    if (auto *air = std::get_if<AtmosphereMedium>(&m)) {
+        if (air->sun_transmittance == AtmosphereMedium::SunTransmittance::Table) build_tau_table(*air);
+    }
     if (auto *grid = std::get_if<GridMedium>(&m)) {
         const int *r = grid->density.grid->res;
         const int automatic = (std::max({r[0], r[1], r[2]}) + 9) / 10;
@@ -242,6 +314,18 @@ Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps) {
         }
     }
     return tau;
+}
+
+Spectrum sun_optical_depth(const Medium &medium, const Ray &ray, Real t_max) {
+    const auto &m = std::get<AtmosphereMedium>(medium);
+    Real r0, r1;
+    Spectrum tau;
+    // The table gives the whole way to the top; a segment that stops short (at an object
+    // in the air, or the ground) takes the quadrature.
+    if (sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1) && t_max >= r1 * (1 - 1e-9) &&
+        m.tabulated_tau_to_top(ray.at(std::max(ray.t_min, r0)), ray.d, tau))
+        return tau;
+    return optical_depth(medium, ray, t_max, kSunQuadratureSteps);
 }
 
 // 3D DDA through the majorant cells (Amanatides & Woo), in grid space where the ray's
