@@ -83,6 +83,8 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         if (crossing > kMaxNullCrossings) return Spectrum(0.0);
         Intersection its;
         const bool hit = scene.intersect(ray, its);
+        // Occluded: nothing to estimate (and no tracking to pay for) on the way there.
+        if (hit && !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf])) return Spectrum(0.0);
         const Real t_end = hit ? its.t : ray.t_max;
         if (current >= 0) {
             const Medium &m = scene.media[current];
@@ -131,7 +133,6 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         }
         if (!hit) break;
         const ShapeInfo &shape = scene.shapes[its.shape];
-        if (!is_null(scene.bsdfs[shape.bsdf])) return Spectrum(0.0);  // occluded
         current = medium_after_crossing(shape, ray.d, its.n, current);
         remaining -= its.t;
         ray = spawn_ray(its.p, its.n, ray.d, remaining);
