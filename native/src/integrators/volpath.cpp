@@ -99,7 +99,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 // Toward the sun through the air, T from a table (or by quadrature): at
                 // sunrise the shadow ray crosses an optical depth of tens, where ratio
                 // tracking's estimate is mostly noise. The error is the table's: T within
-                // 0.05 % per unit of optical depth (tests/native/test_atmosphere.py).
+                // 6e-4 of an exact integral (tests/native/test_atmosphere.py).
                 // For the MIS weights as for homogeneous media: the phase strategy's chance
                 // to reach the disc is T. (Its hits of the 0.27-degree disc weigh ~1e-4.)
                 const Spectrum T = exp(-sun_optical_depth(m, ray, t_end));
