@@ -119,6 +119,30 @@ def test_sparse_storage_follows_the_active_voxels():
         assert abs(grid.native.lookup(tuple(p))[0] - ref) < 1e-6
 
 
+@pytest.mark.parametrize("channels", [1, 3])
+def test_lookups_match_a_dense_trilinear_reference(channels):
+    """Random values in a 21 x 13 x 17 grid (odd sizes: partial bricks at the far borders)
+    with a quarter of its bricks empty: lookups at random points, the borders included,
+    equal trilinear interpolation of the dense array, whether the eight voxels share one
+    brick (the fast path) or not."""
+    rng = np.random.default_rng(channels)
+    dense = rng.uniform(0, 5, (17, 13, 21, channels)).astype(np.float32)  # (z, y, x, c)
+    dense[:8, :8, 8:16] = 0  # an empty brick
+    grid = volpath.VolumeGrid.from_numpy(dense)
+    n = np.array([21, 13, 17])
+    for p in np.concatenate([rng.uniform(0, 1, (300, 3)), rng.choice([0.0, 1.0], (20, 3))]):
+        c = np.clip(p * n - 0.5, 0, n - 1)
+        i0 = np.minimum(c.astype(int), n - 1)
+        i1, w = np.minimum(i0 + 1, n - 1), c - i0
+        ref = np.zeros(channels)
+        for corner in range(8):
+            b = [(corner >> a) & 1 for a in range(3)]
+            ix = [i1[a] if b[a] else i0[a] for a in range(3)]
+            ref += dense[ix[2], ix[1], ix[0]] * np.prod([w[a] if b[a] else 1 - w[a] for a in range(3)])
+        got = np.array(grid.native.lookup(tuple(p)))
+        assert np.allclose(got, np.broadcast_to(ref, 3), rtol=1e-5, atol=1e-5), (p, got, ref)
+
+
 @pytest.mark.parametrize("damage, message", [
     ("truncated", "grid 'density': .+"),
     ("missing grid", "grid 'smoke': no grid named 'smoke' \\(the file has 'density'\\)"),

@@ -15,6 +15,25 @@ Spectrum VoxelGrid::lookup(const Vec3 &p) const {
         i1[a] = std::min(i0[a] + 1, res[a] - 1);
         w[a] = c[a] - i0[a];
     }
+    // Usually (343 times in 512) the eight voxels share one brick: one indirection for all.
+    constexpr int L = kLog2Brick, M = kBrick - 1;
+    if ((i0[0] >> L) == (i1[0] >> L) && (i0[1] >> L) == (i1[1] >> L) && (i0[2] >> L) == (i1[2] >> L)) {
+        const int32_t b = brick_index[(size_t(i0[2] >> L) * bricks[1] + (i0[1] >> L)) * bricks[0] + (i0[0] >> L)];
+        if (b < 0) return Spectrum(0.0);
+        const int dx = (i1[0] - i0[0]) * channels, dy = (i1[1] - i0[1]) * kBrick * channels,
+                  dz = (i1[2] - i0[2]) * kBrick * kBrick * channels;
+        const float *v = &data[(size_t(b) * kBrickVoxels + (((i0[2] & M) * kBrick + (i0[1] & M)) * kBrick + (i0[0] & M))) *
+                               channels];
+        Spectrum out(0.0);
+        for (int c = 0; c < channels; ++c) {
+            const float *q = v + c;
+            const Real x00 = q[0] + (q[dx] - q[0]) * w[0], x10 = q[dy] + (q[dy + dx] - q[dy]) * w[0];
+            const Real x01 = q[dz] + (q[dz + dx] - q[dz]) * w[0],
+                       x11 = q[dz + dy] + (q[dz + dy + dx] - q[dz + dy]) * w[0];
+            out[c] = (x00 + (x10 - x00) * w[1]) * (1 - w[2]) + (x01 + (x11 - x01) * w[1]) * w[2];
+        }
+        return channels == 1 ? Spectrum(out[0]) : out;
+    }
     Spectrum out(0.0);
     for (int corner = 0; corner < 8; ++corner) {
         const int x = (corner & 1) ? i1[0] : i0[0];
