@@ -77,7 +77,7 @@ def scene_list(mitsuba, cycles):
             variants += [(f"majorant grid {r}³" if r > 1 else "one global majorant", NULL, {"majorants": r})
                          for r in (1, 8, 16)]
         if key == "c":
-            variants += [(f"nee_mis max_depth {d}", {"tracer": "nee_mis", "max_depth": d}, {}) for d in (2, 4, 8, 16)]
+            variants += [(f"nee_mis max_depth {d}", {"tracer": "nee_mis", "max_depth": d}, {}) for d in (1, 2, 4, 8, 16, 32)]
             variants += [("nee_mis no Russian roulette", {"tracer": "nee_mis", "rr_depth": 10 ** 6}, {})]
         out.append(Study(f"({key}) {stem}", desc, os.path.join(bench, f"{stem}.xml"), variants,
                          peers(key, mitsuba, cycles)))
