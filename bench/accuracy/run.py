@@ -53,7 +53,7 @@ class Study(NamedTuple):
     reference: dict = {}
 
 
-def peers(key, mitsuba, cycles, path=None):
+def peers(key, mitsuba, cycles):
     """Mitsuba 3's variants (where it can read the scene file) and Cycles (bench/cycles_scenes.py)."""
     out = [(f"Mitsuba {v}", lambda p, res, v=v: cm.Mitsuba(v, p, res)) for v in mitsuba]
     if cycles:

@@ -115,6 +115,7 @@ struct AtmosphereMedium {
     bool tabulated_tau_to_top(const Vec3 &p, const Vec3 &d, Spectrum &tau) const;
     Real ozone_profile(Real h) const;
     void densities(Real h, Real &rayleigh, Real &mie, Real &ozone) const;
+    Spectrum sigma_t(Real h) const;
 };
 
 using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;

@@ -91,7 +91,16 @@ void AtmosphereMedium::densities(Real h, Real &rayleigh, Real &mie, Real &ozone)
     ozone = ozone_profile(h);
 }
 
+Spectrum AtmosphereMedium::sigma_t(Real h) const {
+    Real rayleigh, mie, ozone;
+    densities(h, rayleigh, mie, ozone);
+    return rayleigh_sigma_s * rayleigh + (mie_sigma_s + mie_sigma_a) * mie + ozone_sigma_a * ozone;
+}
+
 namespace {
+// Composite Simpson's rule: the weight of sample k of 0..steps (steps even), times h / 3.
+Real simpson_weight(int k, int steps) { return (k == 0 || k == steps) ? 1.0 : (k % 2 ? 4.0 : 2.0); }
+
 // Bruneton 2017's coordinates of the transmittance table: x_r from the ground (0) to the
 // top (1) by rho = sqrt(r^2 - R^2); x_mu by where the distance d to the top lies between
 // its least (straight up) and greatest (along the horizon) values. Smooth in both.
@@ -117,10 +126,8 @@ Spectrum tau_along(const AtmosphereMedium &m, Real r, Real mu, Real d, int steps
     const Real h = d / steps;
     for (int k = 0; k <= steps; ++k) {
         const Real t = k * h;
-        Real rayleigh, mie, ozone;
-        m.densities(std::sqrt(std::max(r * r + t * t + 2 * r * mu * t, 0.0)) - m.planet_radius, rayleigh, mie, ozone);
-        const Spectrum sigma_t = m.rayleigh_sigma_s * rayleigh + (m.mie_sigma_s + m.mie_sigma_a) * mie + m.ozone_sigma_a * ozone;
-        tau += sigma_t * (((k == 0 || k == steps) ? 1.0 : (k % 2 ? 4.0 : 2.0)) * h / 3.0);
+        const Real altitude = std::sqrt(std::max(r * r + t * t + 2 * r * mu * t, 0.0)) - m.planet_radius;
+        tau += m.sigma_t(altitude) * (simpson_weight(k, steps) * h / 3.0);
     }
     return tau;
 }
@@ -329,8 +336,7 @@ Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps) {
         const Real a = seg.t0, h = (seg.t1 - a) / steps;
         for (int k = 0; k <= steps; ++k) {
             const MediumProperties mp = medium_properties(m, ray.at(a + k * h));
-            const Real w = (k == 0 || k == steps) ? 1.0 : (k % 2 ? 4.0 : 2.0);
-            tau += (mp.sigma_a + mp.sigma_s) * (w * h / 3.0);
+            tau += (mp.sigma_a + mp.sigma_s) * (simpson_weight(k, steps) * h / 3.0);
         }
     }
     return tau;
