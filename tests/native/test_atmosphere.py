@@ -312,3 +312,15 @@ def test_sun_transmittance_short_of_the_top_takes_the_quadrature():
         tau = np.array(_core.sun_optical_depth(scene.native, 0, o, d, t_max))
         ref = np.array(_core.optical_depth(scene.native, 0, o, d, t_max, 4000))
         assert np.allclose(tau, ref, rtol=1e-4, atol=1e-9), (t_max, tau, ref)
+
+
+def test_bad_atmosphere_options_name_file_line_and_choices():
+    """A wrong `sun_transmittance` or `spectral_passes` (checked in RGB mode too) is a
+    SceneError naming the file position and what was expected."""
+    import pytest
+
+    with pytest.raises(volpath.SceneError, match=r":\d+: .*'sun_transmittance' is 'exact', expected one of: "
+                                                 r"table, quadrature, tracking"):
+        air_scene('<string name="sun_transmittance" value="exact"/>')
+    with pytest.raises(volpath.SceneError, match=r":\d+: .*'spectral_passes' must be in 1..32"):
+        air_scene('<integer name="spectral_passes" value="0"/>')
