@@ -378,15 +378,19 @@ PYBIND11_MODULE(_core, m) {
 
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.
+    // split_after >= 0: the values of the stream split off after that many dimensions (the
+    // second branch of a camera ray in a medium).
     m.def("sampler_values", [](uint64_t seed, uint64_t pixel, int samples, int dimensions, bool low_discrepancy,
-                               bool two_d) {
+                               bool two_d, int split_after) {
         if (samples < 1 || dimensions < 1) throw std::invalid_argument("samples and dimensions must be positive");
         std::vector<py::ssize_t> shape{samples, dimensions};
         if (two_d) shape.push_back(2);
         py::array_t<double> out(shape);
         double *o = out.mutable_data();
         for (int i = 0; i < samples; ++i) {
-            Sampler sampler(seed, pixel, uint64_t(i), low_discrepancy);
+            Sampler parent(seed, pixel, uint64_t(i), low_discrepancy);
+            for (int d = 0; d < split_after; ++d) parent.next_1d();
+            Sampler sampler = split_after >= 0 ? parent.split() : parent;
             for (int d = 0; d < dimensions; ++d) {
                 if (two_d) {
                     const Vec2 u = sampler.next_2d();
@@ -397,7 +401,8 @@ PYBIND11_MODULE(_core, m) {
             }
         }
         return out;
-    });
+    }, py::arg("seed"), py::arg("pixel"), py::arg("samples"), py::arg("dimensions"), py::arg("low_discrepancy"),
+       py::arg("two_d"), py::arg("split_after") = -1);
 
     // Sampler access for the statistical tests (chi-square against the pdfs).
     m.def("phase_sample", [](double g, const DoubleArray &u) {

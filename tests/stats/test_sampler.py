@@ -20,10 +20,16 @@ def test_2d_dimensions_are_0_2_nets(dimension):
             assert np.array_equal(np.sort(cells), np.arange(64)), (pixel, k)
 
 
-def test_1d_dimensions_are_stratified():
+@pytest.mark.parametrize("split_after", [-1, 0, 3])
+def test_1d_dimensions_are_stratified(split_after):
+    """Over a pixel's 64 samples each dimension holds one value per 1/64 interval; so do the
+    dimensions of a stream split off a sample (the camera's second branch in a medium),
+    whose scrambles must depend on the pixel, not on the sample."""
     for pixel in range(20):
-        v = _core.sampler_values(5, pixel, 64, 24, True, False)
+        v = _core.sampler_values(5, pixel, 64, 24, True, False, split_after)
         assert np.array_equal(np.sort(np.floor(v * 64).astype(int), axis=0), np.tile(np.arange(64)[:, None], (1, 24)))
+    parent, split = (_core.sampler_values(5, 0, 64, 24, True, False, s) for s in (-1, 0))
+    assert not np.allclose(parent, split)
 
 
 @pytest.mark.parametrize("low_discrepancy", [True, False])
