@@ -43,8 +43,13 @@ class VolpathSettings(bpy.types.PropertyGroup):
         ("rgb", "RGB", "Three wavelengths, 680 / 550 / 440 nm: one pass"),
         ("spectral", "Spectral", "Twelve wavelengths over 360-830 nm in four passes, integrated against the CIE "
                                  "matching functions: truer sunrise colours for four times the time")])
-    atmosphere_pieces: IntProperty(name="Majorant Pieces", description="Pieces of each ray's per-altitude majorant",
-                                   default=4, min=1, max=16)
+    atmosphere_free_flight: EnumProperty(name="Free Flight", default="guided", items=[
+        ("guided", "Guided", "Collisions drawn toward where the sun's light scatters, transmittances from a table: "
+                             "far less noise at sunrise"),
+        ("tracking", "Delta Tracking", "Collisions by delta tracking against per-ray majorants (unbiased with the "
+                                       "sun's transmittance tracked too)")])
+    atmosphere_pieces: IntProperty(name="Majorant Pieces", description="Pieces of each ray's per-altitude majorant "
+                                   "(delta tracking)", default=4, min=1, max=16)
     sun_irradiance: FloatProperty(name="Sky Sun Irradiance", description="W/m² of the Sky Texture's own sun "
                                   "(used only without a Sun lamp), times its Sun Intensity", default=10.0, min=0.0)
     # Animation to video (the sunrise pipeline)

@@ -67,7 +67,7 @@ class VOLPATH_PT_atmosphere(_VolpathPanel, bpy.types.Panel):
     def draw_header(self, context):
         self.layout.prop(context.scene.volpath, "use_atmosphere", text="")
 
-    props = ("atmosphere_preset", "atmosphere_mode", "atmosphere_pieces", "sun_irradiance")
+    props = ("atmosphere_preset", "atmosphere_mode", "atmosphere_free_flight", "atmosphere_pieces", "sun_irradiance")
 
     def draw(self, context):
         self.layout.active = context.scene.volpath.use_atmosphere

@@ -738,13 +738,19 @@ class _Builder:
             raise p.error("'majorant_pieces' must be in 1..16")
         # Shadow rays to the sun: a table of optical depths, Simpson's rule, or ratio tracking.
         sun = p.str("sun_transmittance", "table", ("table", "quadrature", "tracking"))
+        # Free flights: guided toward the sunlit air (transmittances by quadrature), or delta
+        # tracking, which the fully unbiased sun_transmittance="tracking" implies.
+        flight = p.str("free_flight", "tracking" if sun == "tracking" else "guided", ("guided", "tracking"))
+        if flight == "guided" and sun == "tracking":
+            raise p.error("free_flight='guided' takes transmittances by quadrature: it needs "
+                          "sun_transmittance 'table' or 'quadrature', not 'tracking'")
         albedo = p.rgb("ground_albedo", preset["ground_albedo"])
         if np.any(albedo > 1):
             raise p.error("'ground_albedo' must be at most 1")
         n = self.native
         index = n.add_medium_atmosphere(tuple(center), R, R + H, tuple(rayleigh), h_r, tuple(mie_s),
                                         tuple(mie_t - mie_s), h_m, g,
-                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun)
+                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun, flight)
         n.add_sphere(tuple(center), R + H, False, n.add_bsdf_null(), interior=index, exterior=-1,
                      medium_interface=True)
         if p.bool("ground", True):

@@ -54,7 +54,8 @@ def _sky(node, scene, strength, report, has_sun_lamp):
                     "rendering the physical atmosphere instead")
     unit = scene.unit_settings.scale_length or 1.0
     air = {"type": "atmosphere", "preset": settings.atmosphere_preset, "mode": settings.atmosphere_mode,
-           "unit": float(unit), "majorant_pieces": int(settings.atmosphere_pieces)}
+           "unit": float(unit), "free_flight": settings.atmosphere_free_flight,
+           "majorant_pieces": int(settings.atmosphere_pieces)}
     from volpath.scene import ATMOSPHERE_PRESETS
 
     preset = ATMOSPHERE_PRESETS[settings.atmosphere_preset]

@@ -295,13 +295,18 @@ PYBIND11_MODULE(_core, m) {
         .def("add_medium_atmosphere",
              [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
                 double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
-                int pieces, const std::string &sun_transmittance) {
+                int pieces, const std::string &sun_transmittance, const std::string &free_flight) {
                  AtmosphereMedium a;
                  using S = AtmosphereMedium::SunTransmittance;
                  if (sun_transmittance == "table") a.sun_transmittance = S::Table;
                  else if (sun_transmittance == "quadrature") a.sun_transmittance = S::Quadrature;
                  else if (sun_transmittance == "tracking") a.sun_transmittance = S::Tracking;
                  else throw std::invalid_argument("sun_transmittance must be table, quadrature or tracking");
+                 if (free_flight == "guided") a.free_flight = AtmosphereMedium::FreeFlight::Guided;
+                 else if (free_flight == "tracking") a.free_flight = AtmosphereMedium::FreeFlight::Tracking;
+                 else throw std::invalid_argument("free_flight must be guided or tracking");
+                 if (a.free_flight == AtmosphereMedium::FreeFlight::Guided && a.sun_transmittance == S::Tracking)
+                     throw std::invalid_argument("free_flight guided needs sun_transmittance table or quadrature");
                  a.center = vec(center);
                  a.planet_radius = planet_radius, a.top_radius = top_radius;
                  a.rayleigh_sigma_s = vec(rayleigh), a.rayleigh_height = rayleigh_height;
@@ -314,7 +319,7 @@ PYBIND11_MODULE(_core, m) {
              py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
              py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
              py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4,
-             py::arg("sun_transmittance") = "table")
+             py::arg("sun_transmittance") = "table", py::arg("free_flight") = "guided")
         .def("add_sun",
              [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
                  if (!(angular_radius > 0 && angular_radius < 0.5))
@@ -485,6 +490,28 @@ PYBIND11_MODULE(_core, m) {
     m.def("sun_optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
         const Spectrum tau = sun_optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
         return std::array<double, 3>{tau.x, tau.y, tau.z};
+    });
+    // The guided free flight's tabulation of one ray through the air (lit by the scene's
+    // sun): optical depths at distances ts, and collision distances with their densities
+    // for the uniform numbers us.
+    m.def("air_segment", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts,
+                            const DoubleArray &us) {
+        if (!s.built) s.build();
+        const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
+        const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
+        const AirSegment seg = air_segment(air, ray, t_max, s.sun_guide());
+        py::array_t<double> tau({size_t(ts.shape(0)), size_t(3)}), t_out(us.shape(0)), pdf(us.shape(0));
+        auto r = tau.mutable_unchecked<2>();
+        for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
+            const Spectrum v = seg.optical_depth(ts.at(i));
+            r(i, 0) = v.x, r(i, 1) = v.y, r(i, 2) = v.z;
+        }
+        for (py::ssize_t i = 0; i < us.shape(0); ++i) {
+            Real t = 0, p = 0;
+            if (!seg.sample(us.at(i), t, p)) t = p = std::numeric_limits<double>::quiet_NaN();
+            t_out.mutable_at(i) = t, pdf.mutable_at(i) = p;
+        }
+        return py::make_tuple(tau, t_out, pdf);
     });
     m.def("optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int steps) {
         const Spectrum tau = optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max},

@@ -187,6 +187,10 @@ def test_sky_texture_becomes_the_atmosphere(blank):
     assert d["air"]["mode"] == "spectral" and len(scene.passes) == 4
     img = volpath.render(scene, spp=2, seed=1)
     assert np.all(np.isfinite(img)) and img[:8].mean(axis=(0, 1))[2] > img[:8].mean(axis=(0, 1))[0]
+    # The panel's Free Flight setting reaches the scene (guided by default).
+    assert d["air"]["free_flight"] == "guided"
+    blank.volpath.atmosphere_free_flight = "tracking"
+    assert export_scene(depsgraph()).scene["air"]["free_flight"] == "tracking"
 
 
 def test_animation_render_writes_every_frame(blank, tmp_path):

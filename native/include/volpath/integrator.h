@@ -9,7 +9,8 @@
 //   nee_mis          + NEE at every event, combined with phase/BSDF sampling by the
 //                      power heuristic; shadow rays cross index-matched boundaries.
 //   null_scattering  + heterogeneous media: delta tracking against a majorant, ratio
-//                      tracking on shadow rays.
+//                      tracking on shadow rays (the air: a guided free flight and
+//                      tabulated transmittances, see AirSegment).
 //
 // All of them handle chromatic (RGB) coefficients the same way: each path picks one
 // colour channel to sample distances with, and every pdf is averaged over the channels

@@ -2,6 +2,7 @@
 // (-1 = none). Loaders and exporters fill it through the builder functions.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,10 @@ struct Scene {
     // and directional lights, light arrives by next-event estimation alone.
     bool has_hittable_emitters() const { return lights.size() > point_and_directional; }
     size_t point_and_directional = 0;
+    bool has_environment = false;  // an EnvironmentLight among the lights; set by build()
+    // The first sun or directional light, which guides free flights in the air; set by build().
+    std::optional<SunGuide> sun;
+    const SunGuide *sun_guide() const { return sun ? &*sun : nullptr; }
     std::string describe() const;
 };
 

@@ -43,12 +43,26 @@ Features features_of(const TracerConfig &c) {
     return f;
 }
 
-// Whether a shadow ray to `light` crosses `m` with a deterministic transmittance (the sun
-// through the air, unless set to ratio tracking).
-bool sun_through_air(const Light &light, const Medium &m) {
+const AtmosphereMedium *guided_air(const Medium &m) {
     const auto *air = std::get_if<AtmosphereMedium>(&m);
-    return air && air->sun_transmittance != AtmosphereMedium::SunTransmittance::Tracking &&
-           (std::holds_alternative<SunLight>(light) || std::holds_alternative<DirectionalLight>(light));
+    return air && air->free_flight == AtmosphereMedium::FreeFlight::Guided ? air : nullptr;
+}
+
+// Whether a shadow ray to `light` crosses `m` with a deterministic transmittance: any
+// light through guided air, else the sun through air whose sun transmittance is not set
+// to ratio tracking.
+bool deterministic_through_air(const Light &light, const Medium &m) {
+    const auto *air = std::get_if<AtmosphereMedium>(&m);
+    return air && (guided_air(m) || (air->sun_transmittance != AtmosphereMedium::SunTransmittance::Tracking &&
+                                     (std::holds_alternative<SunLight>(light) ||
+                                      std::holds_alternative<DirectionalLight>(light))));
+}
+
+// Whether a ray that escapes the scene can only find `light` there: the scene is lit at
+// infinity by suns alone. The guided free flight makes every ray that would leave the air
+// for empty space collide in it instead (a sun's disc seen from the air is NEE's alone).
+bool leads_to_suns_only(const Scene &scene, const Light &light) {
+    return std::holds_alternative<SunLight>(light) && !scene.has_environment;
 }
 
 // Next-event estimation from a scattering point: choose a light uniformly, sample a
@@ -79,6 +93,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     Ray ray = spawn_ray(p, n, ls.d, remaining0);
     Real remaining = remaining0;
     int current = surface ? medium_after_crossing(*surface, ls.d, n, medium) : medium;
+    bool left_guided_air = false;  // the last crossing led from guided air into vacuum
     for (int crossing = 0;; ++crossing) {
         if (crossing > kMaxNullCrossings) return Spectrum(0.0);
         Intersection its;
@@ -95,16 +110,17 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 // Phase sampling would have to fly through without colliding, unless the
                 // medium only absorbs, where both strategies apply T in closed form.
                 if (!is_black(h.sigma_s)) r_u *= T;
-            } else if (sun_through_air(scene.lights[light], m)) {
+            } else if (deterministic_through_air(scene.lights[light], m)) {
                 // Toward the sun through the air, T from a table (or by quadrature): at
                 // sunrise the shadow ray crosses an optical depth of tens, where ratio
                 // tracking's estimate is mostly noise. The error is the table's: T within
                 // 6e-4 of an exact integral (tests/native/test_atmosphere.py).
-                // For the MIS weights as for homogeneous media: the phase strategy's chance
-                // to reach the disc is T. (Its hits of the 0.27-degree disc weigh ~1e-4.)
+                // For the MIS weights, the phase strategy's chance to fly through: T per
+                // channel under delta tracking, the channel average under the guided free
+                // flight, which decides for all channels at once (see radiance_path).
                 const Spectrum T = exp(-sun_optical_depth(m, ray, t_end));
                 T_ray *= T;
-                r_u *= T;
+                r_u *= guided_air(m) ? Spectrum(average(T)) : T;
             } else {
                 const Spectrum T_maj = sample_T_maj(
                     m, ray, t_end, channel, sampler,
@@ -133,11 +149,15 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         }
         if (!hit) break;
         const ShapeInfo &shape = scene.shapes[its.shape];
-        current = medium_after_crossing(shape, ray.d, its.n, current);
+        const int next = medium_after_crossing(shape, ray.d, its.n, current);
+        left_guided_air = next < 0 && current >= 0 && guided_air(scene.media[current]);
+        current = next;
         remaining -= its.t;
         ray = spawn_ray(its.p, its.n, ray.d, remaining);
     }
 
+    // Rays that leave guided air for nothing but suns never get there by phase sampling.
+    if (left_guided_air && leads_to_suns_only(scene, scene.lights[light])) r_u = Spectrum(0.0);
     const Real light_pdf = scene.light_select_pdf() * ls.pdf;
     r_l *= r_p * light_pdf;
     r_u *= r_p * scatter_pdf;
@@ -202,13 +222,90 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         }
     };
 
+    // A real scattering event at p in medium m, beta already weighted for reaching it:
+    // NEE, then phase sampling of the next ray and Russian roulette. False: the path ends.
+    auto scatter_in_medium = [&](const Vec3 &p, const Medium &m) {
+        ++depth;
+        const PhaseFunction phase = medium_phase(m, p);
+        if (feat.nee) {
+            L += sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta, r_u, channel, feat.mis, sampler,
+                               [&](const Vec3 &d, Spectrum &pdf_d) {
+                                   const Real mu = dot(ray.d, d);
+                                   pdf_d = phase_pdf(phase, mu);
+                                   return phase_eval(phase, mu);
+                               });
+            // Nothing left that the path could find?
+            if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
+        }
+        const Real u_lobe = sampler.next_1d();
+        const PhaseSample ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
+        const Real pdf_c = ps.pdf[channel];
+        if (!(pdf_c > 0)) return false;
+        // Lobe mixtures make the direction's pdf differ per channel.
+        beta *= ps.value / pdf_c;
+        r_l = r_u / pdf_c;
+        r_u *= ps.pdf / pdf_c;
+        prev_p = p;
+        specular_bounce = false;
+        null_crossings = 0;
+        ray = Ray{p, ps.d_out, 0, kInfinity};
+        // Russian roulette on the channel-averaged throughput.
+        if (depth >= config.rr_depth) {
+            const Real q = std::min(max_component(beta / average(r_u)), 0.95);
+            if (!(sampler.next_1d() < q)) return false;
+            beta /= q;
+        }
+        return true;
+    };
+
+    // The guided free flight through the air (AirSegment): pass through or collide with a
+    // probability shared by all channels (the camera's first segment does both, see
+    // radiance()); collisions are drawn along the segment toward where the sun's light
+    // scatters, weighted with the table's transmittance.
+    enum class Flight { Crossed, Scattered, Ended };
+    auto guided_flight = [&](const Medium &m, bool hit, const Intersection &its, Real t_end) {
+        const AirSegment seg = air_segment(*guided_air(m), ray, t_end, scene.sun_guide());
+        const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
+        bool collide = branch == Branch::Collide;
+        Real p_event = 1;
+        if (branch == Branch::All) {
+            Real p_collide = 0;  // 1 - T by expm1: exact for thin air too
+            for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;
+            // Leaving the air for empty space under suns alone, a path could only find a
+            // sun's disc, which NEE takes (see sample_direct): always collide.
+            if (p_collide > 0 && hit && !scene.has_environment && is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) &&
+                medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) < 0) {
+                Intersection beyond;
+                if (!scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond)) p_collide = 1;
+            }
+            collide = sampler.next_1d() < p_collide;
+            p_event = collide ? p_collide : average(T);
+        }
+        branch = Branch::All;
+        if (collide) {
+            Real t, pdf;
+            if (last_vertex() || !seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
+            const Vec3 p = ray.at(t);
+            beta *= seg.transmittance(t) * medium_properties(m, p).sigma_s / (pdf * p_event);
+            return !is_black(beta) && scatter_in_medium(p, m) ? Flight::Scattered : Flight::Ended;
+        }
+        if (!(p_event > 0)) return Flight::Ended;
+        beta *= T / p_event;
+        r_l /= p_event;  // the light strategy needs no flight through: see sample_direct
+        return Flight::Crossed;
+    };
+
     for (;;) {
         Intersection its;
         const bool hit = scene.intersect(ray, its);
         const Real t_end = hit ? its.t : ray.t_max;
 
         // Travel through the current medium, possibly scattering in it.
-        if (medium >= 0) {
+        if (medium >= 0 && feat.scatter && guided_air(scene.media[medium])) {
+            const Flight flight = guided_flight(scene.media[medium], hit, its, t_end);
+            if (flight == Flight::Ended) return L;
+            if (flight == Flight::Scattered) continue;
+        } else if (medium >= 0) {
             const Medium &m = scene.media[medium];
             const auto *h = std::get_if<HomogeneousMedium>(&m);
             const bool scatters = feat.scatter && !(h && is_black(h->sigma_s));
@@ -273,46 +370,17 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                         // Real or null collision, in proportion to sigma_t : sigma_n in the
                         // sampling channel. Absorption is not sampled: it weights beta.
                         if (sampler.next_1d() * sigma_maj[channel] < sigma_t[channel]) {
-                            if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) {
+                            if (last_vertex()) {
                                 terminated = true;
                                 return false;
                             }
                             const Real pdf = T_seg[channel] * sigma_t[channel];
                             beta *= T_seg * mp.sigma_s / pdf;
                             r_u *= T_seg * sigma_t / pdf;
-                            if (is_black(beta)) {
+                            if (is_black(beta) || !scatter_in_medium(p, m)) {
                                 terminated = true;
                                 return false;
                             }
-                            ++depth;
-                            const PhaseFunction phase = medium_phase(m, p);
-                            if (feat.nee) {
-                                L += sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta, r_u, channel,
-                                                   feat.mis, sampler, [&](const Vec3 &d, Spectrum &pdf_d) {
-                                                       const Real mu = dot(ray.d, d);
-                                                       pdf_d = phase_pdf(phase, mu);
-                                                       return phase_eval(phase, mu);
-                                                   });
-                                if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) {
-                                    terminated = true;  // nothing left that the path could find
-                                    return false;
-                                }
-                            }
-                            const Real u_lobe = sampler.next_1d();
-                            const PhaseSample ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
-                            const Real pdf_c = ps.pdf[channel];
-                            if (!(pdf_c > 0)) {
-                                terminated = true;
-                                return false;
-                            }
-                            // Lobe mixtures make the direction's pdf differ per channel.
-                            beta *= ps.value / pdf_c;
-                            r_l = r_u / pdf_c;
-                            r_u *= ps.pdf / pdf_c;
-                            prev_p = p;
-                            specular_bounce = false;
-                            null_crossings = 0;
-                            ray = Ray{p, ps.d_out, 0, kInfinity};
                             scattered = true;
                             return false;
                         }
@@ -333,15 +401,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                     },
                     forced);
                 if (terminated) return L;
-                if (scattered) {
-                    // Russian roulette on the channel-averaged throughput.
-                    if (depth >= config.rr_depth) {
-                        const Real q = std::min(max_component(beta / average(r_u)), 0.95);
-                        if (!(sampler.next_1d() < q)) return L;
-                        beta /= q;
-                    }
-                    continue;
-                }
+                if (scattered) continue;
                 // No collision before t_end. Homogeneous media are crossed by shadow rays in
                 // closed form, so the light strategy's density does not include T there.
                 const Real pdf = T_maj[channel];

@@ -1,5 +1,7 @@
 #include "volpath/medium.h"
 
+#include <algorithm>
+
 #include "volpath/geometry.h"
 
 namespace volpath {
@@ -255,6 +257,131 @@ bool AtmosphereMedium::tabulated_tau_to_top(const Vec3 &p, const Vec3 &d, Spectr
     return true;
 }
 
+namespace {
+// Integral over an interval of length dt of a density that is exp(-h / H) at altitudes h0
+// and h1 at its ends and exponential in between (altitude linear along the interval).
+Real exponential_integral(Real rho0, Real rho1, Real h0, Real h1, Real H, Real dt) {
+    const Real dh = h1 - h0;
+    // Nearly level: the trapezoid rule is exact to O(dh^2), and the closed form cancels.
+    if (std::abs(dh) < 1e-6 * H) return 0.5 * (rho0 + rho1) * dt;
+    return (rho0 - rho1) * H * dt / dh;
+}
+
+// Integral over [0, s] of the exponential through (0, a) and (delta, b), a, b > 0.
+Real exp_interpolated_integral(Real a, Real b, Real delta, Real s) {
+    const Real x = std::log(b / a) / delta;
+    return x == 0 ? a * s : a * std::expm1(x * s) / x;
+}
+}  // namespace
+
+AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun) {
+    AirSegment s;
+    s.air = &m, s.ray = ray;
+    Real r0, r1;
+    if (!sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1)) return s;
+    const Real a = std::max(ray.t_min, r0), b = std::min(t_max, r1);
+    if (!(a < b)) return s;
+    // Intervals on each side of the lowest point in proportion to the side's length.
+    constexpr int K = AirSegment::kNodes - 1;
+    const Real tc = std::clamp(dot(m.center - ray.o, ray.d), a, b);
+    const int left = tc == a ? 0 : tc == b ? K : std::clamp(int(std::lround(K * (tc - a) / (b - a))), 1, K - 1);
+    // Free flight and the sun's single scattering at the nodes, each normalised below.
+    const Real mu = sun ? dot(ray.d, sun->to_sun) : 0;
+    const Real p_rayleigh = rayleigh_eval(mu), p_mie = cornette_shanks_eval(m.mie_g, mu);
+    const Spectrum mie_t = m.mie_sigma_s + m.mie_sigma_a;
+    Spectrum free_flight[AirSegment::kNodes], sunlit[AirSegment::kNodes];
+    for (int k = 0; k <= K; ++k) {
+        AirSegment::Node &q = s.node[k];
+        const Real x = k <= left ? Real(left - k) / left : Real(k - left) / (K - left);
+        q.t = k == 0 ? a : k == K ? b : k <= left ? tc - (tc - a) * x * x : tc + (b - tc) * x * x;
+        const Vec3 p = ray.at(q.t);
+        q.h = m.altitude(p);
+        m.densities(q.h, q.rayleigh, q.mie, q.ozone);
+        if (k == 0) {
+            q.I_rayleigh = q.I_mie = q.I_ozone = 0;
+        } else {
+            const AirSegment::Node &prev = s.node[k - 1];
+            const Real dt = q.t - prev.t, h0 = std::max(prev.h, 0.0), h1 = std::max(q.h, 0.0);
+            q.I_rayleigh = prev.I_rayleigh + exponential_integral(prev.rayleigh, q.rayleigh, h0, h1, m.rayleigh_height, dt);
+            q.I_mie = prev.I_mie + exponential_integral(prev.mie, q.mie, h0, h1, m.mie_height, dt);
+            q.I_ozone = prev.I_ozone + 0.5 * (prev.ozone + q.ozone) * dt;
+        }
+        const Spectrum s_r = m.rayleigh_sigma_s * q.rayleigh, s_m = m.mie_sigma_s * q.mie;
+        const Spectrum T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
+        free_flight[k] = (s_r + mie_t * q.mie + m.ozone_sigma_a * q.ozone) * T;
+        Spectrum tau_sun;
+        sunlit[k] = sun && m.tabulated_tau_to_top(p, sun->to_sun, tau_sun)
+                        ? T * exp(-tau_sun) * (s_r * p_rayleigh + s_m * p_mie)
+                        : Spectrum(0.0);
+    }
+    s.n = K + 1;
+    // The table's depth to the top from the start, along -d if d meets the ground ahead.
+    const Vec3 v = ray.at(a) - m.center;
+    const Real r = length(v), mu_a = dot(v, ray.d) / r;
+    s.downward = mu_a < 0 && r * r * (mu_a * mu_a - 1) + m.planet_radius * m.planet_radius >= 0;
+    if (!m.tabulated_tau_to_top(ray.at(a), s.downward ? -ray.d : ray.d, s.tau_start)) s.tau_start = Spectrum(kInfinity);
+    // Each part normalised by its trapezoidal integral per channel, then averaged over the
+    // channels (the balance heuristic over per-channel densities: every channel's integrand
+    // is covered, whose shapes differ most in the sun's transmittance). The weights only
+    // need be positive wherever air is: the floor keeps them so.
+    Spectrum mass_free(0.0), mass_sun(0.0);
+    for (int k = 1; k <= K; ++k) {
+        const Real dt = s.node[k].t - s.node[k - 1].t;
+        mass_free += (free_flight[k - 1] + free_flight[k]) * (0.5 * dt);
+        mass_sun += (sunlit[k - 1] + sunlit[k]) * (0.5 * dt);
+    }
+    if (!(max_component(mass_free) > 0)) {  // no air on the segment: nothing collides
+        for (int k = 0; k <= K; ++k) s.node[k].weight = s.node[k].mass = 0;
+        return s;
+    }
+    const Real share_sun = max_component(mass_sun) > 0 ? 0.5 : 0.0;
+    const Spectrum w_free = safe_div(Spectrum(1 - share_sun), mass_free), w_sun = safe_div(Spectrum(share_sun), mass_sun);
+    for (int k = 0; k <= K; ++k) {
+        AirSegment::Node &q = s.node[k];
+        q.weight = std::max(average(w_free * free_flight[k] + w_sun * sunlit[k]), 1e-300);
+        q.mass = k == 0 ? 0.0 : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
+                                                                               q.t - s.node[k - 1].t, q.t - s.node[k - 1].t);
+    }
+    return s;
+}
+
+Spectrum AirSegment::optical_depth(Real t_at) const {
+    if (n == 0 || t_at <= node[0].t) return Spectrum(0.0);
+    const AtmosphereMedium &m = *air;
+    t_at = std::min(t_at, node[n - 1].t);
+    Spectrum tau_end;
+    if (is_finite(tau_start) && m.tabulated_tau_to_top(ray.at(t_at), downward ? -ray.d : ray.d, tau_end))
+        return clamp_zero(downward ? tau_end - tau_start : tau_start - tau_end);
+    // Off the table (a ray through a planet without ground): the nodes' quadrature.
+    int k = 0;
+    while (k + 2 < n && node[k + 1].t <= t_at) ++k;
+    const Node &q = node[k];
+    const Real h0 = std::max(q.h, 0.0), h = std::max(m.altitude(ray.at(t_at)), 0.0), dt = t_at - q.t;
+    Real rayleigh, mie, ozone;
+    m.densities(h, rayleigh, mie, ozone);
+    const Real I_r = q.I_rayleigh + exponential_integral(q.rayleigh, rayleigh, h0, h, m.rayleigh_height, dt);
+    const Real I_m = q.I_mie + exponential_integral(q.mie, mie, h0, h, m.mie_height, dt);
+    const Real I_o = q.I_ozone + 0.5 * (q.ozone + ozone) * dt;
+    return m.rayleigh_sigma_s * I_r + (m.mie_sigma_s + m.mie_sigma_a) * I_m + m.ozone_sigma_a * I_o;
+}
+
+bool AirSegment::sample(Real u, Real &t_out, Real &pdf) const {
+    if (n == 0 || !(node[n - 1].mass > 0)) return false;
+    const Real target = u * node[n - 1].mass;
+    int k = 0;
+    while (k + 2 < n && node[k + 1].mass <= target) ++k;
+    // Invert the exponential's integral from node k: a expm1(x s) / x = rest.
+    const Node &q = node[k];
+    const Real delta = node[k + 1].t - q.t, a = q.weight, rest = std::max(target - q.mass, 0.0);
+    const Real x = std::log(node[k + 1].weight / a) / delta;
+    Real s = x == 0 ? rest / a : std::log1p(rest * x / a) / x;
+    if (!std::isfinite(s)) s = delta;
+    s = std::clamp(s, 0.0, delta);
+    t_out = q.t + s;
+    pdf = a * std::exp(x * s) / node[n - 1].mass;
+    return pdf > 0 && std::isfinite(pdf);
+}
+
 bool is_emissive(const Medium &m) {
     if (const auto *h = std::get_if<HomogeneousMedium>(&m)) return !is_black(h->Le) && !is_black(h->sigma_a);
     if (const auto *g = std::get_if<GridMedium>(&m)) return !is_black(g->Le_scale);
@@ -309,7 +436,10 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
 
 void prepare_medium(Medium &m) {
     if (auto *air = std::get_if<AtmosphereMedium>(&m)) {
-        if (air->sun_transmittance == AtmosphereMedium::SunTransmittance::Table) build_tau_table(*air);
+        // The guided free flight reads the sun's transmittance from the table too.
+        if (air->sun_transmittance == AtmosphereMedium::SunTransmittance::Table ||
+            air->free_flight == AtmosphereMedium::FreeFlight::Guided)
+            build_tau_table(*air);
     }
     if (auto *grid = std::get_if<GridMedium>(&m)) {
         const int *r = grid->density.grid->res;
@@ -348,7 +478,8 @@ Spectrum sun_optical_depth(const Medium &medium, const Ray &ray, Real t_max) {
     Spectrum tau;
     // The table gives the whole way to the top; a segment that stops short (at an object
     // in the air, or the ground) takes the quadrature.
-    if (sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1) && t_max >= r1 * (1 - 1e-9) &&
+    if (m.sun_transmittance == AtmosphereMedium::SunTransmittance::Table &&
+        sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1) && t_max >= r1 * (1 - 1e-9) &&
         m.tabulated_tau_to_top(ray.at(std::max(ray.t_min, r0)), ray.d, tau))
         return tau;
     return optical_depth(medium, ray, t_max, kSunQuadratureSteps);

@@ -62,6 +62,14 @@ int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectr
 void Scene::build() {
     geometry.build();
     for (Light &l : lights) prepare_light(l, geometry);
+    sun.reset();
+    has_environment = false;
+    for (const Light &l : lights) has_environment |= std::holds_alternative<EnvironmentLight>(l);
+    for (const Light &l : lights) {
+        if (const auto *s = std::get_if<SunLight>(&l)) sun = SunGuide{s->to_sun, s->radiance};
+        else if (const auto *d = std::get_if<DirectionalLight>(&l)) sun = SunGuide{-d->direction, d->irradiance};
+        if (sun) break;
+    }
     if (camera.medium >= int(media.size())) throw std::out_of_range("invalid camera medium");
     built = true;
 }
