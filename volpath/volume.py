@@ -134,7 +134,10 @@ def _check_values(values, what):
 
 
 def _read_vdb(path, name, user_to_world):
-    d = vdb.read(path, name)
+    return _grid_from_vdb(vdb.read(path, name), path, name, user_to_world)
+
+
+def _grid_from_vdb(d, path, name, user_to_world):
     what = f"{path}: grid '{name}'"
     _check_values(d["bricks"], what)
     # Unit cube -> VDB index space (voxel i centred at index i) -> the file's world -> the scene.
@@ -143,3 +146,31 @@ def _read_vdb(path, name, user_to_world):
     native = _core.VoxelGrid.from_bricks(tuple(int(r) for r in d["res"]), d["brick_index"], d["bricks"])
     return VolumeGrid(native, user_to_world @ d["index_to_world"] @ unit_to_index, what,
                       vdb=(os.path.abspath(path), name, user_to_world))
+
+
+def read_vdb_aligned(path, names, to_world=None):
+    """Grids of one ``.vdb`` file for combining voxel by voxel (an emitting volume's density
+    and temperature): the first as ``VolumeGrid.from_file`` reads it, and for each other
+    name the first's stored bricks (numpy (n, 8, 8, 8, channels)) filled with that grid's
+    values at the same voxel indices, 0 where it has none. The grids of one file share an
+    index space (Blender's smoke and fire grids do); memory follows the first's voxels."""
+    user = np.eye(4) if to_world is None else np.asarray(to_world, dtype=np.float64)
+    first = vdb.read(path, names[0])
+    grid = _grid_from_vdb(first, path, names[0], user)
+    # Each stored brick's voxels as global indices (x, y, z) of the file's index space.
+    bz, by, bx = np.nonzero(first["brick_index"] >= 0)
+    order = np.argsort(first["brick_index"][bz, by, bx])
+    corner = np.stack([bx[order], by[order], bz[order]], axis=1) * 8 + first["origin"]  # (n, 3)
+    z, y, x = np.meshgrid(np.arange(8), np.arange(8), np.arange(8), indexing="ij")
+    voxels = corner[:, None, None, None, :] + np.stack([x, y, z], axis=-1)[None]  # (n, 8, 8, 8, 3)
+    others = []
+    for name in names[1:]:
+        d = vdb.read(path, name)
+        _check_values(d["bricks"], f"{path}: grid '{name}'")
+        local = voxels - d["origin"]
+        inside = np.all((local >= 0) & (local < d["res"]), axis=-1)
+        local = np.where(inside[..., None], local, 0)
+        slot = d["brick_index"][local[..., 2] // 8, local[..., 1] // 8, local[..., 0] // 8]
+        values = d["bricks"][np.maximum(slot, 0), local[..., 2] % 8, local[..., 1] % 8, local[..., 0] % 8]
+        others.append(np.where((inside & (slot >= 0))[..., None], values, 0).astype(np.float32))
+    return grid, others

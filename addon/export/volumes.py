@@ -1,13 +1,12 @@
 """Volume objects: their OpenVDB grids become heterogeneous media.
 
-The density grid is read by volpath's own sparse reader (``VolumeGrid.from_file``: memory
-follows the active voxels), placed by the file's transform and the object's. An emitting
-volume is read with the ``openvdb`` module that ships with Blender (shared/README.md §4)
-into dense grids over the density's active voxels, because its radiance is Blender's
-emission divided by the absorption, voxel by voxel. There a VDB voxel i sits at
-i * voxel_size (Blender's ``matrix_object`` maps index to object space) and a Volpath voxel
-at (i + 0.5) / res of the unit box, so the box starts half a voxel before the first active
-voxel.
+Grids are read by volpath's own sparse reader (``VolumeGrid.from_file``: memory follows
+the active voxels), placed by the file's transform and the object's. An emitting volume's
+radiance is Blender's emission divided by the absorption, voxel by voxel, plus blackbody
+radiance from its temperature grid: it is computed on the density's stored bricks, with
+the temperature read at the same voxel indices (``read_vdb_aligned``), so it is sparse too.
+Blender's ``openvdb`` module (shared/README.md §4) is only used to write test and scene
+files.
 """
 
 import os
@@ -30,25 +29,10 @@ def _openvdb():
     return openvdb
 
 
-def read_grid(path, name, box=None):
-    """(dense (z, y, x, 1) float32 array, index of its first voxel) of one float grid, over
-    its active voxels or over `box` = (first index, (nx, ny, nz))."""
-    vdb = _openvdb()
-    grid = vdb.read(path, name)
-    if box is None:
-        (i0, j0, k0), (i1, j1, k1) = grid.evalActiveVoxelBoundingBox()
-        box = ((i0, j0, k0), (i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1))
-    first, shape = tuple(int(i) for i in box[0]), tuple(int(n) for n in box[1])
-    if min(shape) < 1:
-        return None, None
-    dense = np.zeros(shape, np.float32)
-    grid.copyToArray(dense, ijk=first)
-    return np.ascontiguousarray(dense.transpose(2, 1, 0)[..., None]), np.array(first, np.float64)
-
-
 def export(obj, matrix_world, medium, report, exterior):
     """A cube shape holding the heterogeneous medium of one volume object, or None."""
     import bpy
+    from volpath import SceneError, VolumeGrid
 
     volume = obj.data
     owner = f"volume '{obj.name}'"
@@ -74,18 +58,16 @@ def export(obj, matrix_world, medium, report, exterior):
     interior = {"type": "heterogeneous", "scale": scale,
                 "albedo": {"type": "rgb", "value": albedo.tolist()},
                 "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
-    if _emits(medium):
-        density = _dense_with_emission(volume, path, attribute, grid, matrix_world, medium, scale, albedo,
-                                       interior, report, owner)
-    else:  # read sparse by volpath's own reader: memory follows the active voxels
-        from volpath import SceneError, VolumeGrid
-
-        try:
+    try:
+        if _emits(medium):
+            density = _with_emission(volume, path, attribute, matrix_world, medium, scale, albedo, interior, report,
+                                     owner)
+        else:
             density = VolumeGrid.from_file(path, attribute, to_world=convert.matrix(matrix_world))
-        except SceneError as e:
-            if "no active voxels" not in str(e):
-                raise report.error(f"{owner}: {e}") from None
-            density = None
+    except SceneError as e:
+        if "no active voxels" not in str(e):
+            raise report.error(f"{owner}: {e}") from None
+        density = None
     if density is None:
         report.warn(f"{owner}: grid '{attribute}' has no active voxels (skipped)")
         return None
@@ -103,39 +85,30 @@ def _emits(medium):
     return bool(np.any(np.asarray(medium.get("emission", 0)) > 0) or medium.get("blackbody", 0) > 0)
 
 
-def _dense_with_emission(volume, path, attribute, grid, matrix_world, medium, scale, albedo, interior, report,
-                         owner):
-    """An emitting volume's density as a VolumeGrid, and its radiance grid in `interior`:
-    Blender's emission over sigma_a, plus blackbody radiance at Temperature x the
-    temperature grid, voxel by voxel over the density's active box (read with Blender's
-    own openvdb: Le divides by the density, so both grids must share voxels)."""
-    from volpath import VolumeGrid
+def _with_emission(volume, path, attribute, matrix_world, medium, scale, albedo, interior, report, owner):
+    """An emitting volume's density as a VolumeGrid, and its radiance grid in `interior` on
+    the same bricks: Blender's emission over sigma_a, plus blackbody radiance at Temperature
+    x the temperature grid, voxel by voxel (Le divides by the density, so the two grids
+    share voxels)."""
+    from volpath import VolumeGrid, _core
+    from volpath.volume import read_vdb_aligned
 
     from .materials import emitted_radiance
 
-    try:
-        data, first = read_grid(path, attribute)
-    except (RuntimeError, KeyError, ValueError) as e:
-        raise report.error(f"{owner}: cannot read grid '{attribute}' from '{path}' ({e})") from None
-    if data is None:
-        return None
-    if data.min() < 0:
-        report.warn(f"{owner}: negative densities clamped to 0")
-        data = np.maximum(data, 0)
-    box = np.eye(4)
-    box[:3, :3] = np.diag(np.array(data.shape[2::-1], np.float64))
-    box[:3, 3] = first - 0.5
-    grid_to_world = convert.matrix(matrix_world) @ np.array(grid.matrix_object, dtype=np.float64) @ box
-    temperature = np.full(data.shape[:3], medium.get("temperature", 0.0))
+    names = [attribute]
     if medium.get("blackbody", 0) > 0:
-        name = medium["temperature_attribute"]
-        if volume.grids.get(name) is not None:
-            t_grid, _ = read_grid(path, name, (first, data.shape[2::-1]))
-            temperature = temperature * t_grid[..., 0]
+        if volume.grids.get(medium["temperature_attribute"]) is not None:
+            names.append(medium["temperature_attribute"])
         else:
-            report.warn(f"{owner}: no '{name}' grid: blackbody at the constant Temperature")
-    sigma_a = scale * data * (1 - albedo)  # (z, y, x, 3)
-    Le = emitted_radiance(medium, sigma_a, temperature, report, owner)
+            report.warn(f"{owner}: no '{medium['temperature_attribute']}' grid: blackbody at the constant Temperature")
+    density, others = read_vdb_aligned(path, names, to_world=convert.matrix(matrix_world))
+    bricks = density.native.bricks  # (n, 8, 8, 8, 1)
+    temperature = np.full(bricks.shape[:4], medium.get("temperature", 0.0))
+    if others:
+        temperature = temperature * others[0][..., 0]
+    Le = emitted_radiance(medium, scale * bricks * (1 - albedo), temperature, report, owner)
     if np.any(Le > 0):
-        interior["radiance"] = VolumeGrid.from_numpy(np.ascontiguousarray(Le, dtype=np.float32), grid_to_world)
-    return VolumeGrid.from_numpy(data, grid_to_world)
+        native = _core.VoxelGrid.from_bricks(density.native.res, density.native.brick_index,
+                                             np.ascontiguousarray(Le, dtype=np.float32))
+        interior["radiance"] = VolumeGrid(native, density.to_world, density.source)
+    return density

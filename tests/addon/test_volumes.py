@@ -118,10 +118,38 @@ def test_fire_blackbody_and_emission_become_radiance(blank, tmp_path):
     add_volume(tmp_path / "fire.vdb", m)
     add_camera(blank)
     interior = export_scene(depsgraph()).scene["fire"]["interior"]
-    Le = interior["radiance"].numpy()  # a dense VolumeGrid over the density's active voxels
-    assert Le.shape == (4, 4, 4, 3)  # the density's active box
+    # The radiance grid lies on the density's voxels (same bricks and placement).
+    radiance, density = interior["radiance"], interior["density"]
+    assert radiance.shape[:3] == density.shape[:3] and np.allclose(radiance.to_world, density.to_world)
+    assert np.array_equal(radiance.native.brick_index, density.native.brick_index)
     sigma_a = 2.0 * 0.8  # density x (1 - colour)
     expected = np.array([0.8, 0.4, 0.0]) / sigma_a + blackbody_rgb(1500.0)
-    assert np.allclose(Le[2, 2, 2], expected, rtol=1e-5)
+    dense = density.numpy()[..., 0]
+    assert np.count_nonzero(dense) == 64
+    assert np.allclose(radiance.numpy()[dense > 0], expected, rtol=1e-5)
     scene = volpath.load_dict(export_scene(depsgraph()).scene)
     assert scene.summary["media"][0]["emissive"]
+
+
+def test_emitting_volume_is_stored_sparse(blank, tmp_path):
+    """Two small fires 190 voxels apart: the density and its radiance keep only the bricks
+    around them (OpenVDB leaves), not the 200^3 box between them (96 MB of radiance dense)."""
+    from addon.export.volumes import _openvdb
+
+    vdb = _openvdb()
+    density = vdb.FloatGrid()
+    density.name = "density"
+    blob = np.full((4, 4, 4), 3.0, np.float32)
+    density.copyFromArray(blob, ijk=(0, 0, 0))
+    density.copyFromArray(blob, ijk=(190, 190, 190))
+    density.transform = vdb.createLinearTransform(voxelSize=0.01)
+    vdb.write(str(tmp_path / "fires.vdb"), grids=[density])
+    m = volume_material("fires", density=1.0, color=(0.5, 0.5, 0.5))
+    m.node_tree.nodes["Principled Volume"].inputs["Emission Strength"].default_value = 2.0
+    add_volume(tmp_path / "fires.vdb", m)
+    add_camera(blank)
+    interior = export_scene(depsgraph()).scene["fires"]["interior"]
+    radiance = interior["radiance"]
+    assert min(radiance.shape[:3]) >= 194  # the two fires and the space between
+    assert radiance.nbytes < 0.01 * radiance.dense_nbytes, (radiance.nbytes, radiance.dense_nbytes)
+    assert radiance.max() == pytest.approx(2.0 / (3.0 * 0.5), rel=1e-5)  # emission / sigma_a
