@@ -96,11 +96,12 @@ def scene_list(mitsuba, cycles):
         "sunrise sky", "Bruneton atmosphere, camera 2 m up, looking 60° away from the sun at 2° "
         "elevation (the sun's disc, a sub-pixel emitter, would dominate any error measure), "
         "multiple scattering", sky,
-        [("null_scattering (4 majorant pieces, tabulated sun transmittance)", NULL, {}),
-         ("one majorant per ray", NULL, {"pieces": 1}),
-         ("16 majorant pieces", NULL, {"pieces": 16}),
-         ("sun transmittance by quadrature on each ray", NULL, {"sun": "quadrature"}),
-         ("sun transmittance ratio-tracked", NULL, {"sun": "tracking"}),
+        [("null_scattering (guided free flight, tabulated transmittances)", NULL, {}),
+         ("delta tracking, 4 majorant pieces", NULL, {"flight": "tracking"}),
+         ("delta tracking, one majorant per ray", NULL, {"flight": "tracking", "pieces": 1}),
+         ("delta tracking, 16 majorant pieces", NULL, {"flight": "tracking", "pieces": 16}),
+         ("guided, sun transmittance by quadrature on each ray", NULL, {"sun": "quadrature"}),
+         ("unbiased: delta tracking, sun ratio-tracked", NULL, {"sun": "tracking", "flight": "tracking"}),
          ("single scattering (max_depth 2)", {**NULL, "max_depth": 2}, {}),
          ("max_depth 4", {**NULL, "max_depth": 4}, {}),
          ("auto", {"tracer": "auto"}, {}),
