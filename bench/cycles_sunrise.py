@@ -50,12 +50,29 @@ def time_to(points):
     raise ValueError("need at least two points")
 
 
+def render_cycles(bpy, volpath, scene, frame, tmp, spp, seed):
+    """Cycles on the CPU at THREADS threads, no denoising or adaptive sampling: (image,
+    seconds of the render call)."""
+    c = scene.cycles
+    scene.render.engine = "CYCLES"
+    c.device, c.samples, c.seed = "CPU", spp, seed
+    c.use_denoising, c.use_adaptive_sampling = False, False
+    c.volume_bounces = 16  # Volpath's paths are unlimited; Cycles' default is single scattering
+    scene.render.threads_mode, scene.render.threads = "FIXED", THREADS
+    scene.frame_set(frame)
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.filepath = os.path.join(tmp, "cycles.exr")
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    seconds = time.perf_counter() - start
+    return volpath.read_exr(scene.render.filepath)[..., :3], seconds
+
+
 def sky_scene():
     """The sky alone: Sky Texture (multiple scattering), its sun 2 degrees up, the camera
     2 m above the ground looking 10 degrees up and 60 degrees away from the sun."""
     import math
-
-    import bpy
 
     sys.path.insert(0, os.path.join(ROOT, "tests"))
     from blender_scenes import add_camera, blank_scene, set_background
@@ -106,20 +123,7 @@ def main():
             return image, time.perf_counter() - start
 
         def cycles_render(spp, seed):
-            scene.render.engine = "CYCLES"
-            c = scene.cycles
-            c.device, c.samples, c.seed = "CPU", spp, seed
-            c.use_denoising, c.use_adaptive_sampling = False, False
-            c.volume_bounces = 16  # Volpath's paths are unlimited; Cycles' default is single scattering
-            scene.render.threads_mode, scene.render.threads = "FIXED", THREADS
-            scene.frame_set(args.frame)
-            scene.render.image_settings.file_format = "OPEN_EXR"
-            scene.render.image_settings.color_depth = "32"
-            scene.render.filepath = os.path.join(tmp, "cycles.exr")
-            start = time.perf_counter()
-            bpy.ops.render.render(write_still=True)
-            seconds = time.perf_counter() - start
-            return volpath.read_exr(scene.render.filepath)[..., :3], seconds
+            return render_cycles(bpy, volpath, scene, args.frame, tmp, spp, seed)
 
         for name, fn in (("Volpath", volpath_render), ("Cycles 5.0", cycles_render)):
             fn(4, 99)  # warm-up: kernels, BVH, caches
@@ -192,19 +196,7 @@ def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):
             return render
 
         def cycles_render(spp, seed):
-            c = scene.cycles
-            scene.render.engine = "CYCLES"
-            c.device, c.samples, c.seed = "CPU", spp, seed
-            c.use_denoising, c.use_adaptive_sampling = False, False
-            c.volume_bounces = 16
-            scene.render.threads_mode, scene.render.threads = "FIXED", THREADS
-            scene.render.image_settings.file_format = "OPEN_EXR"
-            scene.render.image_settings.color_depth = "32"
-            scene.render.filepath = os.path.join(tmp, "cycles.exr")
-            start = time.perf_counter()
-            bpy.ops.render.render(write_still=True)
-            seconds = time.perf_counter() - start
-            return volpath.read_exr(scene.render.filepath)[..., :3], seconds
+            return render_cycles(bpy, volpath, scene, args.frame, tmp, spp, seed)
 
         renderers = (("Volpath, guided free flight", volpath_render("guided")),
                      ("Volpath, delta tracking", volpath_render("tracking")), ("Cycles 5.0", cycles_render))
