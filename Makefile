@@ -11,7 +11,7 @@ DEBIAN_PACKAGES := g++ make libopenvdb-dev libboost-iostreams-dev
 PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo python3-venv) \
             $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
-SPP ?= 16
+SPP ?= 8
 RES ?= 320x180
 FRAMES ?= 1-72
 JOBS ?= 2

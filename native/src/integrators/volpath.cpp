@@ -272,8 +272,10 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             Real p_collide = 0;  // 1 - T by expm1: exact for thin air too
             for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;
             // Leaving the air for empty space under suns alone, a path could only find a
-            // sun's disc, which NEE takes (see sample_direct): always collide.
-            if (p_collide > 0 && hit && !scene.has_environment && is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) &&
+            // sun's disc, which NEE from the last scattering event takes (see sample_direct):
+            // always collide. Not after the camera or a specular bounce: no NEE saw the disc.
+            if (p_collide > 0 && !specular_bounce && hit && !scene.has_environment &&
+                is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) &&
                 medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) < 0) {
                 Intersection beyond;
                 if (!scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond)) p_collide = 1;
