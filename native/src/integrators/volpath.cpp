@@ -264,7 +264,9 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
     // scatters, weighted with the table's transmittance.
     enum class Flight { Crossed, Scattered, Ended };
     auto guided_flight = [&](const Medium &m, bool hit, const Intersection &its, Real t_end) {
-        const AirSegment seg = air_segment(*guided_air(m), ray, t_end, scene.sun_guide());
+        // The camera's pass-through branch needs only T: no sun lookups for the guide.
+        const AirSegment seg = air_segment(*guided_air(m), ray, t_end,
+                                           branch == Branch::PassThrough ? nullptr : scene.sun_guide());
         const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
         bool collide = branch == Branch::Collide;
         Real p_event = 1;
