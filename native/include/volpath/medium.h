@@ -104,8 +104,8 @@ struct AtmosphereMedium {
     // (altitude, direction) built by prepare_medium; Simpson's rule on each ray; or ratio
     // tracking (unbiased; kept for the accuracy study).
     enum class SunTransmittance { Table, Quadrature, Tracking } sun_transmittance = SunTransmittance::Table;
-    // Free flights: guided by the sun along each ray (AirSegment; transmittances by
-    // quadrature, so shadow rays must not track), or delta tracking against the pieces.
+    // Free flights: guided by the sun along each ray (AirSegment; transmittances from the
+    // table, so shadow rays must not track), or delta tracking against the pieces.
     enum class FreeFlight { Guided, Tracking } free_flight = FreeFlight::Guided;
     // Optical depth to the top, kTableR x kTableMu entries (Bruneton 2017's parametrisation:
     // x_r = rho / H, x_mu = where the distance to the top lies between its extremes).
@@ -159,7 +159,6 @@ struct AirSegment {
     int n = 0;  // nodes used; 0 if the ray misses the air
     Node node[kNodes];
     Spectrum optical_depth(Real t) const;  // from the first node to t
-    Spectrum transmittance() const { return n ? exp(-optical_depth(node[n - 1].t)) : Spectrum(1.0); }
     Spectrum transmittance(Real t) const { return exp(-optical_depth(t)); }
     // A collision distance and its density over the segment; false if nothing collides.
     bool sample(Real u, Real &t, Real &pdf) const;

@@ -267,10 +267,10 @@ Real exponential_integral(Real rho0, Real rho1, Real h0, Real h1, Real H, Real d
     return (rho0 - rho1) * H * dt / dh;
 }
 
-// Integral over [0, s] of the exponential through (0, a) and (delta, b), a, b > 0.
-Real exp_interpolated_integral(Real a, Real b, Real delta, Real s) {
+// Integral over [0, delta] of the exponential through (0, a) and (delta, b), a, b > 0.
+Real exp_interpolated_integral(Real a, Real b, Real delta) {
     const Real x = std::log(b / a) / delta;
-    return x == 0 ? a * s : a * std::expm1(x * s) / x;
+    return x == 0 ? a * delta : a * std::expm1(x * delta) / x;
 }
 }  // namespace
 
@@ -339,8 +339,9 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     for (int k = 0; k <= K; ++k) {
         AirSegment::Node &q = s.node[k];
         q.weight = std::max(average(w_free * free_flight[k] + w_sun * sunlit[k]), 1e-300);
-        q.mass = k == 0 ? 0.0 : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
-                                                                               q.t - s.node[k - 1].t, q.t - s.node[k - 1].t);
+        q.mass = k == 0 ? 0.0
+                        : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
+                                                                         q.t - s.node[k - 1].t);
     }
     return s;
 }
