@@ -53,7 +53,8 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
         raise ValueError(f"unknown sampler '{sampler}' (expected one of: {', '.join(SAMPLERS)})")
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
-    args = (spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth, scene.max_null_collisions)
+    args = (spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth, scene.max_null_collisions,
+            scene.equiangular)
     if scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")
     else:

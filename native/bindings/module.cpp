@@ -103,8 +103,8 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 }
 
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
-                    int rr_depth, int max_null_collisions, py::object progress_cb, py::object out,
-                    bool low_discrepancy) {
+                    int rr_depth, int max_null_collisions, bool equiangular, py::object progress_cb,
+                    py::object out, bool low_discrepancy) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -114,7 +114,7 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     settings.seed = seed;
     settings.low_discrepancy = low_discrepancy;
     settings.threads = threads;
-    settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions};
+    settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions, equiangular};
 
     // Rendering into a caller's array lets a progress callback show finished tiles.
     py::array_t<float> image;
@@ -379,7 +379,8 @@ PYBIND11_MODULE(_core, m) {
 
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
-          py::arg("progress") = py::none(), py::arg("out") = py::none(), py::arg("low_discrepancy") = true);
+          py::arg("equiangular") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
+          py::arg("low_discrepancy") = true);
 
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.
@@ -424,6 +425,17 @@ PYBIND11_MODULE(_core, m) {
     });
     m.def("phase_eval", [](double g, double mu) { return phase_eval(phase(g), mu)[0]; });
     m.def("rayleigh_eval", &rayleigh_eval);
+    // Equiangular distances toward a point light at c along o + t d, t in [t0, t1]: (t, pdf).
+    m.def("equiangular_sample", [](Array3 c, Array3 o, Array3 d, double t0, double t1, const DoubleArray &u) {
+        const Equiangular e = equiangular(vec(c), vec(o), normalize(vec(d)), t0, t1);
+        if (!is_valid(e)) throw std::invalid_argument("the line passes through the light, or t1 <= t0");
+        py::array_t<double> t(u.shape(0)), pdf(u.shape(0));
+        for (py::ssize_t i = 0; i < u.shape(0); ++i) {
+            t.mutable_at(i) = sample_equiangular(e, u.at(i), t0, t1);
+            pdf.mutable_at(i) = equiangular_pdf(e, t.at(i));
+        }
+        return py::make_tuple(t, pdf);
+    });
     // Majorant pieces of a medium along a ray: (t0, t1, sigma_maj) rows.
     m.def("majorant_segments", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
         MajorantIterator pieces(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);

@@ -90,3 +90,25 @@ def test_bsdf_sampling(bsdf, wi):
     pdf = lambda d: _core.bsdf_pdf(scene.native, 0, wi, d)
     assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
     assert chi2_directions(dirs[ok], pdf, N) > P_MIN
+
+
+@pytest.mark.parametrize("c, o, d, t0, t1", [
+    ((0.3, 1.0, 2.0), (0, 0, 0), (0, 0, 1), 0.0, 5.0),         # light beside the segment
+    ((0.0, 0.01, -3.0), (0, 0, 0), (0, 0, 1), 0.0, 5.0),       # behind the start, nearly on the line
+    ((1.0, -2.0, 40.0), (0, 0, 0), (0.6, 0, 0.8), 0.5, np.inf)])  # an unbounded segment
+def test_equiangular_distances(c, o, d, t0, t1):
+    """Equiangular sampling toward a point light: the pdf is the sampler's density (dt/du
+    = 1 / pdf by central differences, 0.1 %), proportional to 1 / distance^2 to the light,
+    and t stays in [t0, t1], increasing with u."""
+    u = np.linspace(0.001, 0.999, 999)
+    h = 1e-6
+    t, pdf = _core.equiangular_sample(c, o, d, t0, t1, u)
+    t_lo, _ = _core.equiangular_sample(c, o, d, t0, t1, u - h)
+    t_hi, _ = _core.equiangular_sample(c, o, d, t0, t1, u + h)
+    assert np.all(np.diff(t) > 0) and t[0] >= t0 and t[-1] <= t1
+    assert np.allclose((t_hi - t_lo) / (2 * h) * pdf, 1, rtol=1e-3)
+    d = np.asarray(d) / np.linalg.norm(d)
+    r2 = np.sum((np.asarray(o) + t[:, None] * d - np.asarray(c)) ** 2, axis=1)
+    assert np.allclose(pdf * r2, np.mean(pdf * r2), rtol=1e-9)
+    with pytest.raises(ValueError):
+        _core.equiangular_sample(c, c, d, t0, t1, u)  # the line passes through the light

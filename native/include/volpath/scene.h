@@ -42,6 +42,7 @@ struct Scene {
     std::vector<Medium> media;
     std::vector<Light> lights;
     std::vector<int> infinite_lights;  // indices into lights
+    std::vector<int> point_lights;     // indices into lights
     Camera camera;
     bool built = false;
 

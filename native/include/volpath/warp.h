@@ -51,6 +51,35 @@ inline Vec2 sample_uniform_triangle(Vec2 u) {
     return {b0, b1};
 }
 
+// Equiangular distances (Kulla and Fajardo 2012): t in [t0, t1] along o + t d with
+// density proportional to 1 / |o + t d - c|^2, the falloff of a point light at c. The
+// angle seen from c is uniform between theta_a and theta_b; t1 may be infinite.
+struct Equiangular {
+    Real t_closest = 0, D = 0;  // the line's closest approach to c, and its distance
+    Real theta_a = 0, theta_b = 0;
+};
+inline Equiangular equiangular(const Vec3 &c, const Vec3 &o, const Vec3 &d, Real t0, Real t1) {
+    Equiangular e;
+    e.t_closest = dot(c - o, d);
+    e.D = length(c - o - d * e.t_closest);
+    // A line through c (D = 0) has no finite density: theta_a = theta_b marks it unusable.
+    if (e.D > 0 && t1 > t0) {
+        e.theta_a = std::atan2(t0 - e.t_closest, e.D);
+        e.theta_b = std::atan2(t1 - e.t_closest, e.D);
+    }
+    return e;
+}
+inline bool is_valid(const Equiangular &e) { return e.theta_b > e.theta_a; }
+inline Real sample_equiangular(const Equiangular &e, Real u, Real t0, Real t1) {
+    const Real theta = e.theta_a + u * (e.theta_b - e.theta_a);
+    return std::clamp(e.t_closest + e.D * std::tan(theta), t0, t1);
+}
+inline Real equiangular_pdf(const Equiangular &e, Real t) {
+    if (!is_valid(e)) return 0;
+    const Real s = t - e.t_closest;
+    return e.D / ((e.theta_b - e.theta_a) * (e.D * e.D + s * s));
+}
+
 // Piecewise-constant 1D distribution over n cells of [0, 1).
 struct Distribution1D {
     std::vector<Real> func, cdf;

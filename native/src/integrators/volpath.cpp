@@ -65,17 +65,47 @@ bool leads_to_suns_only(const Scene &scene, const Light &light) {
     return std::holds_alternative<SunLight>(light) && !scene.has_environment;
 }
 
+// A scattering vertex in a homogeneous medium segment, drawn by one of two distance
+// strategies: free flight, or equiangular sampling toward a point light. Each strategy
+// estimates the light of point lights by NEE from its vertices; the power heuristic
+// combines them (multi-sample MIS), with the densities averaged over channels.
+struct SegmentVertex {
+    Ray ray;
+    Real t_end;                 // the segment is [ray.t_min, t_end]
+    Spectrum sigma_t, r_start;  // r_start: the path's r_u where the segment starts
+    Real t, pdf;                // the vertex, and its density under the strategy that drew it
+    int light = -1;             // >= 0: drawn by equiangular sampling toward this light
+};
+
+Real point_light_select_pdf(const Scene &scene) { return 1.0 / Real(scene.point_lights.size()); }
+
+// The other strategy's rescaled density for a vertex lit by point light `light` (same
+// scale as the r_u of the vertex's own strategy; before the light's selection pdf).
+Spectrum other_distance_strategy(const Scene &scene, const SegmentVertex &v, int light) {
+    const auto *point = std::get_if<PointLight>(&scene.lights[light]);
+    if (!point) return Spectrum(0.0);
+    if (v.light >= 0) {  // equiangular vertex: free flight collides at t with density sigma_t T
+        const Spectrum T = exp(-v.sigma_t * (v.t - v.ray.t_min));
+        return v.r_start * v.sigma_t * T / v.pdf * scene.light_select_pdf();
+    }
+    const Equiangular e = equiangular(point->position, v.ray.o, v.ray.d, v.ray.t_min, v.t_end);
+    return v.r_start * (equiangular_pdf(e, v.t) / v.pdf * point_light_select_pdf(scene));
+}
+
 // Next-event estimation from a scattering point: choose a light uniformly, sample a
 // point on it and trace a shadow ray through index-matched boundaries and media.
 // `eval(d, pdf)` returns the scattering value f (times the cosine, for surfaces) and sets
 // the pdf of sampling d per channel. r_p is the path's rescaled unidirectional pdf.
+// `vertex`: the point is a SegmentVertex (its light is given if drawn toward it).
 template <typename Eval>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
                        int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
-                       Sampler &sampler, Eval &&eval) {
+                       Sampler &sampler, Eval &&eval, const SegmentVertex *vertex = nullptr) {
     const int n_lights = int(scene.lights.size());
     if (n_lights == 0) return Spectrum(0.0);
-    const int light = std::min(int(sampler.next_1d() * n_lights), n_lights - 1);
+    const bool toward_light = vertex && vertex->light >= 0;
+    const int light = toward_light ? vertex->light : std::min(int(sampler.next_1d() * n_lights), n_lights - 1);
+    const Real select_pdf = toward_light ? point_light_select_pdf(scene) : scene.light_select_pdf();
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
         !(ls.pdf > 0) || is_black(ls.L))
@@ -158,11 +188,13 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
 
     // Rays that leave guided air for nothing but suns never get there by phase sampling.
     if (left_guided_air && leads_to_suns_only(scene, scene.lights[light])) r_u = Spectrum(0.0);
-    const Real light_pdf = scene.light_select_pdf() * ls.pdf;
+    // The other distance strategy's NEE crosses the same shadow ray (r_l's factors so far).
+    const Spectrum r_other = vertex ? r_l * other_distance_strategy(scene, *vertex, light) : Spectrum(0.0);
+    const Real light_pdf = select_pdf * ls.pdf;
     r_l *= r_p * light_pdf;
     r_u *= r_p * scatter_pdf;
     const Spectrum contribution = beta * f * T_ray * ls.L;
-    if (ls.delta || !mis) return contribution / average(r_l);
+    if (ls.delta || !mis) return contribution * mis_over_a(average(r_l), average(r_other));
     return contribution * mis_over_a(average(r_l), average(r_u));
 }
 
@@ -222,18 +254,42 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         }
     };
 
+    // NEE from a point in a medium, reached along ray.d with weight beta_p.
+    auto direct_in_medium = [&](const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p,
+                                const Spectrum &r_p, const SegmentVertex *vertex) {
+        return sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
+                             [&](const Vec3 &d, Spectrum &pdf_d) {
+                                 const Real mu = dot(ray.d, d);
+                                 pdf_d = phase_pdf(phase, mu);
+                                 return phase_eval(phase, mu);
+                             },
+                             vertex);
+    };
+
+    // Point lights seen from the homogeneous segment [ray.t_min, t_end] that free flight is
+    // about to sample: NEE from a distance drawn toward one of them (SegmentVertex).
+    auto equiangular_direct = [&](const Medium &m, const HomogeneousMedium &h, Real t_end) {
+        const Real u_light = sampler.next_1d(), u_t = sampler.next_1d();
+        const int n = int(scene.point_lights.size());
+        const int light = scene.point_lights[std::min(int(u_light * n), n - 1)];
+        const Vec3 c = std::get<PointLight>(scene.lights[light]).position;
+        const Equiangular e = equiangular(c, ray.o, ray.d, ray.t_min, t_end);
+        if (!is_valid(e)) return;
+        const Real t = sample_equiangular(e, u_t, ray.t_min, t_end), pdf = equiangular_pdf(e, t);
+        const Spectrum sigma_t = h.sigma_a + h.sigma_s;
+        const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, pdf, light};
+        const Vec3 p = ray.at(t);
+        const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / pdf;
+        L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u, &vertex);
+    };
+
     // A real scattering event at p in medium m, beta already weighted for reaching it:
     // NEE, then phase sampling of the next ray and Russian roulette. False: the path ends.
-    auto scatter_in_medium = [&](const Vec3 &p, const Medium &m) {
+    auto scatter_in_medium = [&](const Vec3 &p, const Medium &m, const SegmentVertex *vertex = nullptr) {
         ++depth;
         const PhaseFunction phase = medium_phase(m, p);
         if (feat.nee) {
-            L += sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta, r_u, channel, feat.mis, sampler,
-                               [&](const Vec3 &d, Spectrum &pdf_d) {
-                                   const Real mu = dot(ray.d, d);
-                                   pdf_d = phase_pdf(phase, mu);
-                                   return phase_eval(phase, mu);
-                               });
+            L += direct_in_medium(p, phase, beta, r_u, vertex);
             // Nothing left that the path could find?
             if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
         }
@@ -317,6 +373,10 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             // media): PassThrough crosses it with weight T_maj, Collide must collide in it.
             Real forced = 0;
             const bool pass_through = branch == Branch::PassThrough;
+            const bool equiangular_nee = h && scatters && !pass_through && feat.nee && config.equiangular &&
+                                         !scene.point_lights.empty() && !last_vertex();
+            if (equiangular_nee) equiangular_direct(m, *h, t_end);
+            const Spectrum r_start = r_u;
             if (branch != Branch::All) {
                 const Spectrum tau = majorant_optical_depth(m, ray, t_end);
                 if (pass_through) {
@@ -367,7 +427,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                 bool scattered = false, terminated = false;
                 const Spectrum T_maj = sample_T_maj(
                     m, ray, t_end, channel, sampler,
-                    [&](const Vec3 &p, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
+                    [&](const Vec3 &p, Real t, const MediumProperties &mp, const Spectrum &sigma_maj,
                         const Spectrum &T_seg) {
                         const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
                         add_medium_emission(mp, sigma_maj, T_seg);
@@ -381,7 +441,9 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                             const Real pdf = T_seg[channel] * sigma_t[channel];
                             beta *= T_seg * mp.sigma_s / pdf;
                             r_u *= T_seg * sigma_t / pdf;
-                            if (is_black(beta) || !scatter_in_medium(p, m)) {
+                            // In a homogeneous segment T_seg runs from its start.
+                            const SegmentVertex vertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
+                            if (is_black(beta) || !scatter_in_medium(p, m, equiangular_nee ? &vertex : nullptr)) {
                                 terminated = true;
                                 return false;
                             }
