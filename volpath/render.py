@@ -15,7 +15,7 @@ SAMPLERS = ("sobol", "independent")
 
 
 def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
-           out=None, sampler="sobol"):
+           out=None, sampler="sobol", light_distances=None):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``)
@@ -34,6 +34,9 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
                Sobol sequence over the pixel's samples (stratified, lower error where the
                integrand is smooth); "independent": PCG32 numbers. The scene file's
                sampler type is not used (its sample_count is).
+    light_distances  NEE in homogeneous media also from distances drawn for point and
+               directional lights, combined with free flight's by MIS (default: the
+               scene's integrator setting, on unless the file turns it off)
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
     Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
@@ -54,7 +57,7 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
     args = (spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth, scene.max_null_collisions,
-            scene.equiangular)
+            scene.light_distances if light_distances is None else bool(light_distances))
     if scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")
     else:

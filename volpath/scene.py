@@ -56,7 +56,7 @@ ATMOSPHERE_PRESETS = {
 class Scene:
     """A loaded scene: the native scene plus the file's render settings.
 
-    Attributes: ``spp``, ``max_depth``, ``rr_depth``, ``max_null_collisions``, ``equiangular``,
+    Attributes: ``spp``, ``max_depth``, ``rr_depth``, ``max_null_collisions``, ``light_distances``,
     ``tracer`` (the integrator's tracer), ``width``, ``height``, ``summary`` (what the
     scene contains, for ``volpath info``), ``passes`` (in spectral mode, the scene at each
     pass's wavelengths; see volpath/spectral.py) and, after a render, ``last_render``
@@ -69,7 +69,7 @@ class Scene:
         self.max_depth = settings["max_depth"]
         self.rr_depth = settings["rr_depth"]
         self.max_null_collisions = settings["max_null_collisions"]
-        self.equiangular = settings["equiangular"]
+        self.light_distances = settings["light_distances"]
         self.tracer = settings["tracer"]
         self.summary = summary
         self.source = source
@@ -399,7 +399,7 @@ class _Builder:
         return Scene(self.native, settings, self.summary, self.source)
 
     def integrator(self, d):
-        settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "equiangular": True,
+        settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "light_distances": True,
                     "tracer": "auto"}
         if d is None:
             return settings
@@ -419,7 +419,7 @@ class _Builder:
         if settings["rr_depth"] < 1:
             raise p.error("'rr_depth' must be at least 1")
         settings["max_null_collisions"] = p.int("max_null_collisions", 1000)
-        settings["equiangular"] = p.bool("equiangular", True)
+        settings["light_distances"] = p.bool("light_distances", True)
         if p.bool("hide_emitters", False):
             raise p.error("'hide_emitters' is not supported")
         p.check()

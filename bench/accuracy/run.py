@@ -76,6 +76,8 @@ def scene_list(mitsuba, cycles):
         if key == "d":
             variants += [(f"majorant grid {r}³" if r > 1 else "one global majorant", NULL, {"majorants": r})
                          for r in (1, 8, 16)]
+        if key in ("b", "e"):  # a point light; the sun
+            variants.append(("null_scattering, no light distances", {**NULL, "light_distances": False}, {}))
         if key == "c":
             variants += [(f"nee_mis max_depth {d}", {"tracer": "nee_mis", "max_depth": d}, {}) for d in (1, 2, 4, 8, 16, 32)]
             variants += [("nee_mis no Russian roulette", {"tracer": "nee_mis", "rr_depth": 10 ** 6}, {})]

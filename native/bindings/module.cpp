@@ -103,7 +103,7 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 }
 
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
-                    int rr_depth, int max_null_collisions, bool equiangular, py::object progress_cb,
+                    int rr_depth, int max_null_collisions, bool light_distances, py::object progress_cb,
                     py::object out, bool low_discrepancy) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
@@ -114,7 +114,7 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     settings.seed = seed;
     settings.low_discrepancy = low_discrepancy;
     settings.threads = threads;
-    settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions, equiangular};
+    settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions, light_distances};
 
     // Rendering into a caller's array lets a progress callback show finished tiles.
     py::array_t<float> image;
@@ -379,7 +379,7 @@ PYBIND11_MODULE(_core, m) {
 
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
-          py::arg("equiangular") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
+          py::arg("light_distances") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
           py::arg("low_discrepancy") = true);
 
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or

@@ -14,7 +14,7 @@ LAJOLLA = """<?xml version="1.0"?>
         <integer name="rrDepth" value="3"/>
         <integer name="version" value="4"/>
         <integer name="maxNullCollisions" value="500"/>
-        <boolean name="equiangular" value="false"/>
+        <boolean name="light_distances" value="false"/>
     </integrator>
     <medium type="homogeneous" id="medium">
         <rgb name="sigmaA" value="0.5 0.5 0.5"/>
@@ -52,8 +52,8 @@ def test_lajolla_spellings():
     scene = volpath.load_string(LAJOLLA)
     assert (scene.width, scene.height, scene.spp) == (12, 10, 8)
     assert scene.tracer == "nee_mis" and scene.max_depth == 6 and scene.rr_depth == 3
-    assert scene.max_null_collisions == 500 and not scene.equiangular
-    assert volpath.load_string(MITSUBA3).equiangular  # on by default
+    assert scene.max_null_collisions == 500 and not scene.light_distances
+    assert volpath.load_string(MITSUBA3).light_distances  # on by default
     m = scene.summary["media"][0]
     assert np.allclose(m["sigma_t"], 3.0) and np.allclose(m["albedo"], 2 / 3) and m["g"] == 0.3
     image = volpath.render(scene)

@@ -30,9 +30,10 @@ struct TracerConfig {
     int max_depth = -1;
     int rr_depth = 5;
     int max_null_collisions = 1000;
-    // Direct light from point lights in homogeneous media also at distances drawn toward
-    // the light (equiangular sampling), combined with free flight's by MIS.
-    bool equiangular = true;
+    // Point and directional lights' light in homogeneous media also from distances drawn
+    // for them (equiangular sampling; the segment's transmittance), combined with free
+    // flight's by MIS.
+    bool light_distances = true;
 };
 
 // Radiance arriving along `ray`, which starts in `medium` (-1: vacuum).

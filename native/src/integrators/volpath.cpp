@@ -66,30 +66,64 @@ bool leads_to_suns_only(const Scene &scene, const Light &light) {
 }
 
 // A scattering vertex in a homogeneous medium segment, drawn by one of two distance
-// strategies: free flight, or equiangular sampling toward a point light. Each strategy
-// estimates the light of point lights by NEE from its vertices; the power heuristic
-// combines them (multi-sample MIS), with the densities averaged over channels.
+// strategies: free flight, or a distance drawn for one light (sample_light_distance). Each
+// strategy estimates that light by NEE from its vertices; the power heuristic combines
+// them (multi-sample MIS), with the densities averaged over channels.
 struct SegmentVertex {
     Ray ray;
     Real t_end;                 // the segment is [ray.t_min, t_end]
     Spectrum sigma_t, r_start;  // r_start: the path's r_u where the segment starts
-    Real t, pdf;                // the vertex, and its density under the strategy that drew it
-    int light = -1;             // >= 0: drawn by equiangular sampling toward this light
+    Real t, pdf;                // the vertex, and its density in the path's channel
+    int light = -1;             // >= 0: drawn for this light, else by free flight
 };
 
-Real point_light_select_pdf(const Scene &scene) { return 1.0 / Real(scene.point_lights.size()); }
+// Lights with a distance strategy of their own (Scene::segment_lights): point lights, by
+// equiangular sampling (their inverse-square falloff), and directional lights, by the
+// segment's transmittance truncated to the segment (a collision that free flight in thin
+// media seldom makes). NEE toward either needs no MIS with phase sampling (delta lights).
+Real segment_light_select_pdf(const Scene &scene) { return 1.0 / Real(scene.segment_lights.size()); }
 
-// The other strategy's rescaled density for a vertex lit by point light `light` (same
-// scale as the r_u of the vertex's own strategy; before the light's selection pdf).
+// Per-channel density of drawing t in [ray.t_min, t_end] for `light` (0 for other lights).
+Spectrum light_distance_pdf(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t, Real t) {
+    if (const auto *point = std::get_if<PointLight>(&light))
+        return Spectrum(equiangular_pdf(equiangular(point->position, ray.o, ray.d, ray.t_min, t_end), t));
+    if (!std::holds_alternative<DirectionalLight>(light)) return Spectrum(0.0);
+    const Real s = t - ray.t_min, length = t_end - ray.t_min;
+    Spectrum pdf;
+    for (int c = 0; c < 3; ++c)
+        pdf[c] = sigma_t[c] > 0 ? sigma_t[c] * std::exp(-sigma_t[c] * s) / -std::expm1(-sigma_t[c] * length)
+                                : (std::isfinite(length) ? 1 / length : 0);
+    return pdf;
+}
+
+// Draws t for `light` in the path's channel; false where that density is not defined.
+bool sample_light_distance(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t, int channel,
+                           Real u, Real &t) {
+    const Real length = t_end - ray.t_min;
+    if (!(length > 0)) return false;
+    if (const auto *point = std::get_if<PointLight>(&light)) {
+        const Equiangular e = equiangular(point->position, ray.o, ray.d, ray.t_min, t_end);
+        if (!is_valid(e)) return false;
+        t = sample_equiangular(e, u, ray.t_min, t_end);
+        return true;
+    }
+    const Real sigma = sigma_t[channel];
+    if (sigma > 0) t = ray.t_min + std::min(-std::log1p(u * std::expm1(-sigma * length)) / sigma, length);
+    else if (std::isfinite(length)) t = ray.t_min + u * length;
+    else return false;
+    return true;
+}
+
+// The other strategy's rescaled density for a vertex lit by `light` (same scale as the
+// r_u of the vertex's own strategy, with the light's selection pdf).
 Spectrum other_distance_strategy(const Scene &scene, const SegmentVertex &v, int light) {
-    const auto *point = std::get_if<PointLight>(&scene.lights[light]);
-    if (!point) return Spectrum(0.0);
-    if (v.light >= 0) {  // equiangular vertex: free flight collides at t with density sigma_t T
+    const Spectrum light_pdf = light_distance_pdf(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t);
+    if (is_black(light_pdf)) return Spectrum(0.0);
+    if (v.light >= 0) {  // free flight collides at t with density sigma_t T
         const Spectrum T = exp(-v.sigma_t * (v.t - v.ray.t_min));
         return v.r_start * v.sigma_t * T / v.pdf * scene.light_select_pdf();
     }
-    const Equiangular e = equiangular(point->position, v.ray.o, v.ray.d, v.ray.t_min, v.t_end);
-    return v.r_start * (equiangular_pdf(e, v.t) / v.pdf * point_light_select_pdf(scene));
+    return v.r_start * light_pdf / v.pdf * segment_light_select_pdf(scene);
 }
 
 // Next-event estimation from a scattering point: choose a light uniformly, sample a
@@ -105,7 +139,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     if (n_lights == 0) return Spectrum(0.0);
     const bool toward_light = vertex && vertex->light >= 0;
     const int light = toward_light ? vertex->light : std::min(int(sampler.next_1d() * n_lights), n_lights - 1);
-    const Real select_pdf = toward_light ? point_light_select_pdf(scene) : scene.light_select_pdf();
+    const Real select_pdf = toward_light ? segment_light_select_pdf(scene) : scene.light_select_pdf();
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
         !(ls.pdf > 0) || is_black(ls.L))
@@ -266,21 +300,21 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                              vertex);
     };
 
-    // Point lights seen from the homogeneous segment [ray.t_min, t_end] that free flight is
-    // about to sample: NEE from a distance drawn toward one of them (SegmentVertex).
-    auto equiangular_direct = [&](const Medium &m, const HomogeneousMedium &h, Real t_end) {
+    // The segment lights of the homogeneous segment [ray.t_min, t_end] that free flight is
+    // about to sample: NEE from a distance drawn for one of them (SegmentVertex).
+    auto segment_direct = [&](const Medium &m, const HomogeneousMedium &h, Real t_end) {
         const Real u_light = sampler.next_1d(), u_t = sampler.next_1d();
-        const int n = int(scene.point_lights.size());
-        const int light = scene.point_lights[std::min(int(u_light * n), n - 1)];
-        const Vec3 c = std::get<PointLight>(scene.lights[light]).position;
-        const Equiangular e = equiangular(c, ray.o, ray.d, ray.t_min, t_end);
-        if (!is_valid(e)) return;
-        const Real t = sample_equiangular(e, u_t, ray.t_min, t_end), pdf = equiangular_pdf(e, t);
+        const int n = int(scene.segment_lights.size());
+        const int light = scene.segment_lights[std::min(int(u_light * n), n - 1)];
         const Spectrum sigma_t = h.sigma_a + h.sigma_s;
-        const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, pdf, light};
+        Real t;
+        if (!sample_light_distance(scene.lights[light], ray, t_end, sigma_t, channel, u_t, t)) return;
+        const Spectrum pdf = light_distance_pdf(scene.lights[light], ray, t_end, sigma_t, t);
+        if (!(pdf[channel] > 0)) return;
+        const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, pdf[channel], light};
         const Vec3 p = ray.at(t);
-        const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / pdf;
-        L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u, &vertex);
+        const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / pdf[channel];
+        L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u * pdf / pdf[channel], &vertex);
     };
 
     // A real scattering event at p in medium m, beta already weighted for reaching it:
@@ -373,9 +407,9 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             // media): PassThrough crosses it with weight T_maj, Collide must collide in it.
             Real forced = 0;
             const bool pass_through = branch == Branch::PassThrough;
-            const bool equiangular_nee = h && scatters && !pass_through && feat.nee && config.equiangular &&
-                                         !scene.point_lights.empty() && !last_vertex();
-            if (equiangular_nee) equiangular_direct(m, *h, t_end);
+            const bool segment_nee = h && scatters && !pass_through && feat.nee && config.light_distances &&
+                                     !scene.segment_lights.empty() && !last_vertex();
+            if (segment_nee) segment_direct(m, *h, t_end);
             const Spectrum r_start = r_u;
             if (branch != Branch::All) {
                 const Spectrum tau = majorant_optical_depth(m, ray, t_end);
@@ -443,7 +477,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                             r_u *= T_seg * sigma_t / pdf;
                             // In a homogeneous segment T_seg runs from its start.
                             const SegmentVertex vertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
-                            if (is_black(beta) || !scatter_in_medium(p, m, equiangular_nee ? &vertex : nullptr)) {
+                            if (is_black(beta) || !scatter_in_medium(p, m, segment_nee ? &vertex : nullptr)) {
                                 terminated = true;
                                 return false;
                             }
