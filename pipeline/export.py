@@ -4,7 +4,6 @@ volpath.frames renders."""
 
 import json
 import os
-import shutil
 
 import numpy as np
 
@@ -47,10 +46,10 @@ def prepare_run(scene, frames, out_dir, options, progress=None, cancel=None):
 
 def _volume_sequences(scene, sequences, frames, directory):
     """Per frame, the grids of every VDB sequence beside the scene: a copy of the frame's
-    .vdb where volpath reads it sparse, a dense .vol for emitting volumes (whose radiance is
-    computed voxel by voxel in Blender)."""
+    .vdb, or for an emitting volume's radiance (computed voxel by voxel in Blender) a
+    sparse .vdb of its own (volpath.xml_writer.write_volume)."""
     import bpy
-    from volpath.grids import write_vol
+    from volpath.xml_writer import write_volume
 
     export = sibling("addon.export")
     os.makedirs(os.path.join(directory, "volumes"), exist_ok=True)
@@ -68,17 +67,9 @@ def _volume_sequences(scene, sequences, frames, directory):
                 for grid in ("density", "radiance"):
                     if grid not in shape["interior"]:
                         continue
-                    volume = shape["interior"][grid]  # a volpath.VolumeGrid
                     stem = f"volumes/{key}_{grid}_{entry['frame']:04d}"
-                    if volume.vdb:
-                        path, vdb_grid, to_world = volume.vdb
-                        shutil.copyfile(path, os.path.join(directory, stem + ".vdb"))
-                        grids[grid] = {"type": "vdbvolume", "filename": stem + ".vdb", "grid": vdb_grid,
-                                       "to_world": np.asarray(to_world).tolist()}
-                    else:
-                        write_vol(os.path.join(directory, stem + ".vol"), volume.numpy())
-                        grids[grid] = {"type": "gridvolume", "filename": stem + ".vol",
-                                       "to_world": volume.to_world.tolist()}
+                    plugin = write_volume(shape["interior"][grid], directory, lambda ext: f"{stem}.{ext}", grid)
+                    grids[grid] = dict(plugin, to_world=np.asarray(plugin["to_world"]).tolist())
                 entry["volumes"][key] = grids
     finally:
         scene.frame_set(current)

@@ -9,7 +9,7 @@ An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
                  "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...]}
 
 (``volumes`` only for VDB sequences: their grids at that frame, as scene-language volumes:
-a ``vdbvolume`` copy of the frame's .vdb, or a ``gridvolume`` .vol for emitting volumes.)
+a ``vdbvolume``: a copy of the frame's .vdb, or an emitting volume's radiance written sparse.)
 
 ``render_frame`` is what a worker runs (a local process or a Dask worker): it needs only
 this package, never Blender. The animation arrives as a directory path or, for workers on

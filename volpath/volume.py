@@ -82,6 +82,17 @@ class VolumeGrid:
         """The grid as a dense float32 array (z, y, x, channels)."""
         return self.native.dense()
 
+    def save(self, path, grid="density"):
+        """Write the grid as a sparse ``.vdb`` file holding one fog-volume grid named `grid`
+        (its non-zero voxels active), placed by ``to_world``: ``from_file(path, grid)``
+        reads back the same values at the same places. Needs the OpenVDB module."""
+        res = np.asarray(self.native.res, dtype=np.float64)
+        unit_to_index = np.eye(4)  # as _grid_from_vdb: voxel i centred at index i
+        unit_to_index[:3, :3], unit_to_index[:3, 3] = np.diag(res), -0.5
+        vdb.write(str(path), grid, {"res": self.native.res, "origin": (0, 0, 0),
+                                    "index_to_world": self.to_world @ np.linalg.inv(unit_to_index),
+                                    "brick_index": self.native.brick_index, "bricks": self.native.bricks})
+
     def max(self):
         bricks = self.native.bricks
         return float(bricks.max()) if bricks.size else 0.0

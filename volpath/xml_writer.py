@@ -1,5 +1,5 @@
-"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY, its grids as .vol
-and its OpenVDB grids as copies of their .vdb files.
+"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY and its grids as
+.vdb files (copies of the files they were read from, else written sparse).
 
 The inverse of xml_reader.py for what the Blender exporter produces: ``write_scene(d,
 directory)`` writes ``scene.xml`` next to ``meshes/`` and ``volumes/`` so that
@@ -13,6 +13,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from . import vdb
 from .grids import write_vol
 from .meshes import write_ply
 from .scene import _kind
@@ -37,6 +38,40 @@ def write_scene(d, directory, filename="scene.xml"):
     return path
 
 
+def write_volume(volume, directory, name_for, grid):
+    """Write the VolumeGrid `volume` beside a scene in `directory`, at the relative path
+    name_for(extension), and return the volume plugin that reads it back: a copy of the
+    .vdb it was read from, else a sparse .vdb holding it as `grid`. A .vdb grid fades to 0
+    beyond its active voxels where a grid's lookups clamp at its border; a grid whose
+    outermost voxels are not all 0 (and any grid, in builds without the OpenVDB module)
+    is written as a dense .vol, which clamps the same way."""
+    if volume.vdb:
+        path, vdb_grid, to_world = volume.vdb
+        rel = name_for("vdb")
+        shutil.copyfile(path, os.path.join(directory, rel))
+        return {"type": "vdbvolume", "filename": rel, "grid": vdb_grid, "to_world": to_world}
+    if vdb.available() and _border_is_zero(volume):
+        rel = name_for("vdb")
+        volume.save(os.path.join(directory, rel), grid)  # placed by the file's transform
+        return {"type": "vdbvolume", "filename": rel, "grid": grid, "to_world": np.eye(4)}
+    rel = name_for("vol")
+    write_vol(os.path.join(directory, rel), volume.numpy())
+    return {"type": "gridvolume", "filename": rel, "to_world": volume.to_world}
+
+
+def _border_is_zero(volume):
+    """Whether the outermost voxels of a VolumeGrid are all 0 (read from its bricks)."""
+    index, bricks = volume.native.brick_index, volume.native.bricks  # (bz, by, bx), (n, 8, 8, 8, c)
+    stored = np.argwhere(index >= 0)
+    slots = index[tuple(stored.T)]
+    for axis, size in enumerate(volume.shape[:3]):  # z, y, x
+        for end in (0, size - 1):
+            rows = slots[stored[:, axis] == end // 8]
+            if np.any(np.take(bricks[rows], end % 8, axis=axis + 1)):
+                return False
+    return True
+
+
 def _num(v):
     return repr(float(v))
 
@@ -58,13 +93,9 @@ class _Writer:
     def entry(self, key, value, depth, top=False):
         pad = "    " * depth
         name = f" name={quoteattr(key)}"
-        if isinstance(value, VolumeGrid) and value.vdb:  # a copy of the .vdb it was read from
-            path, grid, to_world = value.vdb
-            rel = self.asset("volumes", os.path.splitext(os.path.basename(path))[0], "vdb")
-            shutil.copyfile(path, os.path.join(self.directory, rel))
-            value = {"type": "vdbvolume", "filename": rel, "grid": grid, "to_world": to_world}
-        elif isinstance(value, VolumeGrid):  # a dense .vol placed by its to_world
-            value = {"type": "gridvolume", "data": value.numpy(), "to_world": value.to_world}
+        if isinstance(value, VolumeGrid):
+            stem = os.path.splitext(os.path.basename(value.vdb[0]))[0] if value.vdb else key
+            value = write_volume(value, self.directory, lambda ext: self.asset("volumes", stem, ext), key)
         if isinstance(value, dict):
             if value.get("type") == "ref":
                 return [f'{pad}<ref{name if not top else ""} id={quoteattr(value["id"])}/>']

@@ -2,7 +2,7 @@
 
     exported = export_scene(depsgraph)          # in memory, for F12
     volpath.load_dict(exported.scene)
-    write_directory(exported, "out/scene")      # scene.xml + meshes/*.ply + volumes/*.vol
+    write_directory(exported, "out/scene")      # scene.xml + meshes/*.ply + volumes/*.vdb
     animation(scene, frames)                    # per-frame sun directions and camera
 
 Everything that cannot be exported faithfully is listed in ``exported.warnings`` (the

@@ -1,4 +1,5 @@
-// volpath._vdb: reads OpenVDB files (Debian's libopenvdb) into Volpath's sparse layout.
+// volpath._vdb: reads OpenVDB files (Debian's libopenvdb) into Volpath's sparse layout,
+// and writes that layout back as OpenVDB files.
 // A separate module so that volpath._core stays free of OpenVDB, TBB and Boost; it runs in
 // a child process (volpath/vdb.py), because OpenVDB trusts its input.
 //
@@ -10,6 +11,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <memory>
@@ -142,10 +144,85 @@ void save(const std::string &path, const std::string &name, const std::string &o
     if (!ok) throw std::runtime_error("cannot write " + out_path + " (disk full?)");
 }
 
+// The reverse of save: a brick file (the same layout, written by volpath/vdb.py) becomes
+// a one-grid .vdb file, a fog volume whose non-zero voxels are active.
+Bricks load(const std::string &path) {
+    std::unique_ptr<FILE, int (*)(FILE *)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+    if (!f) throw std::runtime_error("cannot read " + path);
+    Bricks b;
+    char magic[8];
+    int64_t stored = 0;
+    bool ok = std::fread(magic, 1, 8, f.get()) == 8 && std::equal(magic, magic + 8, "VPVDB1\0\0");
+    ok = ok && std::fread(b.res.data(), 4, 3, f.get()) == 3 && std::fread(b.origin.data(), 4, 3, f.get()) == 3;
+    ok = ok && std::fread(&b.channels, 4, 1, f.get()) == 1 && (b.channels == 1 || b.channels == 3);
+    ok = ok && std::fread(&stored, 8, 1, f.get()) == 1 && std::fread(b.index_to_world, 8, 16, f.get()) == 16;
+    size_t count = 1;
+    for (int a = 0; a < 3 && ok; ++a) {
+        ok = b.res[a] > 0;
+        b.bricks[a] = (b.res[a] + kBrick - 1) / kBrick;
+        count *= size_t(b.bricks[a]);
+    }
+    ok = ok && count <= kMaxBricks && stored >= 0 && size_t(stored) <= count;
+    if (!ok) throw std::invalid_argument(path + ": not a brick file");
+    b.index.resize(count);
+    b.data.resize(size_t(stored) * kBrick * kBrick * kBrick * b.channels);
+    ok = std::fread(b.index.data(), 4, count, f.get()) == count &&
+         std::fread(b.data.data(), 4, b.data.size(), f.get()) == b.data.size();
+    if (!ok) throw std::invalid_argument(path + ": truncated brick file");
+    return b;
+}
+
+template <typename GridT>
+typename GridT::Ptr grid_from_bricks(const Bricks &b) {
+    using ValueT = typename GridT::ValueType;
+    constexpr int C = Channels<ValueT>::value;
+    auto grid = GridT::create(openvdb::zeroVal<ValueT>());
+    auto access = grid->getAccessor();
+    for (int bz = 0; bz < b.bricks[2]; ++bz)
+        for (int by = 0; by < b.bricks[1]; ++by)
+            for (int bx = 0; bx < b.bricks[0]; ++bx) {
+                const int32_t slot = b.index[(size_t(bz) * b.bricks[1] + by) * b.bricks[0] + bx];
+                if (slot < 0) continue;
+                if (size_t(slot) >= b.data.size() / (size_t(kBrick) * kBrick * kBrick * C))
+                    throw std::invalid_argument("a brick index points past the stored bricks");
+                const float *brick = b.data.data() + size_t(slot) * kBrick * kBrick * kBrick * C;
+                for (int z = 0; z < kBrick; ++z)
+                    for (int y = 0; y < kBrick; ++y)
+                        for (int x = 0; x < kBrick; ++x) {
+                            const float *v = brick + ((z * kBrick + y) * kBrick + x) * C;
+                            ValueT value;
+                            if constexpr (C == 1) value = v[0];
+                            else value = ValueT(v[0], v[1], v[2]);
+                            if (openvdb::math::isZero(value)) continue;
+                            access.setValue(openvdb::Coord(b.origin[0] + bx * kBrick + x, b.origin[1] + by * kBrick + y,
+                                                           b.origin[2] + bz * kBrick + z),
+                                            value);
+                        }
+            }
+    return grid;
+}
+
+void write_vdb(const std::string &brick_path, const std::string &name, const std::string &out_path) {
+    openvdb::initialize();
+    const Bricks b = load(brick_path);
+    openvdb::GridBase::Ptr grid;
+    if (b.channels == 1) grid = grid_from_bricks<openvdb::FloatGrid>(b);
+    else grid = grid_from_bricks<openvdb::Vec3SGrid>(b);
+    openvdb::Mat4d m;  // row vectors: world = ijk * m
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) m(j, i) = b.index_to_world[i * 4 + j];
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(m));
+    grid->setName(name);
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    openvdb::io::File file(out_path);
+    file.write({grid});
+    file.close();
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_vdb, m) {
-    m.doc() = "OpenVDB files read into Volpath's sparse brick layout.";
+    m.doc() = "OpenVDB files read into Volpath's sparse brick layout, and written from it.";
     // OpenVDB reports bad files with its own exceptions (IoError, KeyError, ...); all say what.
     // A truncated or corrupt file can also make it allocate from a garbage size.
     py::register_exception_translator([](std::exception_ptr p) {
@@ -159,4 +236,6 @@ PYBIND11_MODULE(_vdb, m) {
     });
     m.def("save", &save, py::arg("path"), py::arg("name"), py::arg("out_path"),
           "Read one grid and write it in Volpath's brick layout to out_path.");
+    m.def("write", &write_vdb, py::arg("brick_path"), py::arg("name"), py::arg("out_path"),
+          "Write a brick file as a .vdb file holding one fog-volume grid called name.");
 }

@@ -133,7 +133,8 @@ def test_fire_blackbody_and_emission_become_radiance(blank, tmp_path):
 
 def test_emitting_volume_is_stored_sparse(blank, tmp_path):
     """Two small fires 190 voxels apart: the density and its radiance keep only the bricks
-    around them (OpenVDB leaves), not the 200^3 box between them (96 MB of radiance dense)."""
+    around them (OpenVDB leaves), not the 200^3 box between them (96 MB of radiance dense),
+    in memory and in an exported directory."""
     from addon.export.volumes import _openvdb
 
     vdb = _openvdb()
@@ -153,3 +154,9 @@ def test_emitting_volume_is_stored_sparse(blank, tmp_path):
     assert min(radiance.shape[:3]) >= 194  # the two fires and the space between
     assert radiance.nbytes < 0.01 * radiance.dense_nbytes, (radiance.nbytes, radiance.dense_nbytes)
     assert radiance.max() == pytest.approx(2.0 / (3.0 * 0.5), rel=1e-5)  # emission / sigma_a
+    # Sparse on disk too: the exported directory holds the radiance as a .vdb of its own.
+    path = write_directory(export_scene(depsgraph()), tmp_path / "scene")
+    written = tmp_path / "scene" / "volumes" / "radiance.vdb"
+    assert written.stat().st_size < 1e6  # dense: 96 MB
+    assert volpath.VolumeGrid.from_file(written, "radiance").max() == pytest.approx(radiance.max(), rel=1e-6)
+    assert volpath.load_file(path).summary["media"][0]["emissive"]
