@@ -12,6 +12,10 @@
 //                      tracking on shadow rays (the air: a guided free flight and
 //                      tabulated transmittances, see AirSegment).
 //
+// The tracers with NEE also estimate point and directional lights in homogeneous media
+// from distances drawn for those lights on every segment (equiangular sampling; the
+// segment's transmittance), combined with free flight's NEE by MIS (SegmentVertex).
+//
 // All of them handle chromatic (RGB) coefficients the same way: each path picks one
 // colour channel to sample distances with, and every pdf is averaged over the channels
 // (one-sample spectral MIS), kept as the rescaled path pdfs r_u (unidirectional) and
