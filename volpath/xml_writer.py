@@ -1,5 +1,6 @@
 """A scene dictionary back to Mitsuba-style XML, with its meshes as PLY and its grids as
-.vdb files (copies of the files they were read from, else written sparse).
+.vdb files (copies of the files they were read from, else written sparse; see
+write_volume for the grids that stay a dense .vol).
 
 The inverse of xml_reader.py for what the Blender exporter produces: ``write_scene(d,
 directory)`` writes ``scene.xml`` next to ``meshes/`` and ``volumes/`` so that
