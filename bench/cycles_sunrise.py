@@ -171,8 +171,9 @@ def main():
                 "work: Cycles' sky is a radiance map precomputed once (with the scene sync, most of its time at "
                 "low spp), so only the fog and the surfaces are path traced, while Volpath traces every sky "
                 f"path through the atmosphere (its error falls as t^{results['Volpath'][0][1]:.2f}: long random walks "
-                "in the air, where the low-discrepancy sampler gains little, with shadow rays through the low air "
-                "dominating the noise). A better sky estimator "
+                "in the air, where the low-discrepancy sampler gains little: the guided free flight makes single "
+                "scattering nearly noise-free, multiply scattered light is most of what is left; the slope is also "
+                "flattened by the noise of Volpath's own reference). A better estimator of multiple scattering "
                 "(issues #4, #12), not a faster loop, is what would close the gap.\n")
     publish(section, args.append)
 
