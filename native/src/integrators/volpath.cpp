@@ -1,3 +1,4 @@
+#include <optional>
 #include <stdexcept>
 
 #include "volpath/integrator.h"
@@ -103,22 +104,25 @@ Spectrum light_distance_pdf(const Light &light, const Ray &ray, Real t_end, cons
     return pdf;
 }
 
-// Draws t for `light` in the path's channel; false where that density is not defined.
+// Draws t for `light` in the path's channel and sets its per-channel density; false where
+// that density is not defined.
 bool sample_light_distance(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t, int channel,
-                           Real u, Real &t) {
+                           Real u, Real &t, Spectrum &pdf) {
     const Real length = t_end - ray.t_min;
     if (!(length > 0)) return false;
     if (const auto *point = std::get_if<PointLight>(&light)) {
         const Equiangular e = equiangular(point->position, ray.o, ray.d, ray.t_min, t_end);
         if (!is_valid(e)) return false;
         t = sample_equiangular(e, u, ray.t_min, t_end);
-        return true;
+        pdf = Spectrum(equiangular_pdf(e, t));
+    } else {
+        const Real sigma = sigma_t[channel];
+        if (sigma > 0) t = ray.t_min + std::min(-std::log1p(u * std::expm1(-sigma * length)) / sigma, length);
+        else if (std::isfinite(length)) t = ray.t_min + u * length;
+        else return false;
+        pdf = light_distance_pdf(light, ray, t_end, sigma_t, t);
     }
-    const Real sigma = sigma_t[channel];
-    if (sigma > 0) t = ray.t_min + std::min(-std::log1p(u * std::expm1(-sigma * length)) / sigma, length);
-    else if (std::isfinite(length)) t = ray.t_min + u * length;
-    else return false;
-    return true;
+    return pdf[channel] > 0;
 }
 
 // The other strategy's rescaled density for a vertex lit by `light` (same scale as the
@@ -315,9 +319,8 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         const int light = scene.segment_lights[std::min(int(u_light * n), n - 1)];
         const Spectrum sigma_t = h.sigma_a + h.sigma_s;
         Real t;
-        if (!sample_light_distance(scene.lights[light], ray, t_end, sigma_t, channel, u_t, t)) return;
-        const Spectrum pdf = light_distance_pdf(scene.lights[light], ray, t_end, sigma_t, t);
-        if (!(pdf[channel] > 0)) return;
+        Spectrum pdf;
+        if (!sample_light_distance(scene.lights[light], ray, t_end, sigma_t, channel, u_t, t, pdf)) return;
         const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, pdf[channel], light};
         const Vec3 p = ray.at(t);
         const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / pdf[channel];
@@ -483,8 +486,9 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                             beta *= T_seg * mp.sigma_s / pdf;
                             r_u *= T_seg * sigma_t / pdf;
                             // In a homogeneous segment T_seg runs from its start.
-                            const SegmentVertex vertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
-                            if (is_black(beta) || !scatter_in_medium(p, m, segment_nee ? &vertex : nullptr)) {
+                            std::optional<SegmentVertex> vertex;
+                            if (segment_nee) vertex = SegmentVertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
+                            if (is_black(beta) || !scatter_in_medium(p, m, vertex ? &*vertex : nullptr)) {
                                 terminated = true;
                                 return false;
                             }
