@@ -34,8 +34,8 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
                Sobol sequence over the pixel's samples (stratified, lower error where the
                integrand is smooth); "independent": PCG32 numbers. The scene file's
                sampler type is not used (its sample_count is).
-    light_distances  NEE in homogeneous media also from distances drawn for point and
-               directional lights, combined with free flight's by MIS (default: the
+    light_distances  NEE in homogeneous media also from distances drawn for the lights
+               (all but environments), combined with free flight's by MIS (default: the
                scene's integrator setting, on unless the file turns it off)
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.

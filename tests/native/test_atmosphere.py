@@ -431,8 +431,10 @@ def test_sun_disc_seen_through_a_medium_inside_the_air():
     """The camera sees the sun's disc through a thin fog sphere in the air: after leaving the
     fog the camera ray is back in guided air with no scattering behind it (so no NEE found
     the disc), and it must still fly through to the disc. The fog (optical depth 2e-3)
-    changes the disc by well under 2 % (the guided estimate's noise here is ~0.3 %), and
-    delta tracking agrees within 10 % (its noise at 64 spp is ~3 %)."""
+    changes the disc by well under 1 %; with and without it, and with delta tracking through
+    the air, the means of 8 renders agree within 5 standard errors (estimated from their
+    spread: per render, about 2.5 % for the guided flight and 12 % for delta tracking in
+    the blue channel)."""
     fog = S.homogeneous("fog", "1e-3", "0.5") + (
         '<shape type="sphere"><point name="center" value="0, 2.1, -5"/><float name="radius" value="1"/>'
         '<bsdf type="null"/><ref name="interior" id="fog"/><ref name="exterior" id="air"/></shape>')
@@ -443,12 +445,17 @@ def test_sun_disc_seen_through_a_medium_inside_the_air():
                           target=f"0, {2 + math.sin(e)}, {-math.cos(e)}", fov=1.0, res=8, spp=64,
                           lights=medium + '<emitter type="sun"><float name="elevation" value="5"/>'
                                           '<rgb name="irradiance" value="1"/></emitter>')
-        return volpath.render(scene, seed=1).reshape(-1, 3).mean(axis=0)
+        renders = np.array([volpath.render(scene, seed=seed).reshape(-1, 3).mean(axis=0) for seed in range(8)])
+        return renders.mean(axis=0), renders.std(axis=0, ddof=1) / np.sqrt(len(renders))
+
+    def agree(a, b):
+        return np.all(np.abs(a[0] - b[0]) < 5 * np.hypot(a[1], b[1]))
 
     clear, through_fog = disc("guided", ""), disc("guided", fog)
-    assert clear[0] > 100, clear  # the disc is in view
-    assert np.allclose(through_fog, clear, rtol=0.02), (through_fog, clear)
-    assert np.allclose(disc("tracking", fog), through_fog, rtol=0.1)
+    assert clear[0][0] > 100, clear  # the disc is in view
+    assert agree(through_fog, clear), (through_fog, clear)
+    tracking = disc("tracking", fog)
+    assert agree(tracking, through_fog), (tracking, through_fog)
 
 
 def test_guided_free_flight_needs_a_deterministic_sun():

@@ -27,6 +27,7 @@ struct AreaLight {
     Spectrum radiance;
     Distribution1D triangle_areas;  // meshes: choose a triangle by area
     Real area = 0;
+    Vec3 center;  // area-weighted centroid: where distances drawn for the light aim
 };
 
 // Radiance arriving from infinity: a constant, or a latitude-longitude map (Mitsuba's

@@ -42,8 +42,8 @@ struct Scene {
     std::vector<Medium> media;
     std::vector<Light> lights;
     std::vector<int> infinite_lights;  // indices into lights
-    // Point and directional lights: NEE from distances drawn for them on homogeneous media
-    // segments (see SegmentVertex in the integrator). Indices into lights.
+    // All but environment lights: NEE also from distances drawn for them on homogeneous
+    // media segments (see SegmentVertex in the integrator). Indices into lights.
     std::vector<int> segment_lights;
     Camera camera;
     bool built = false;

@@ -179,14 +179,21 @@ void prepare_light(Light &light, const Geometry &geometry) {
     if (auto *area = std::get_if<AreaLight>(&light)) {
         const ShapeGeometry &sg = geometry.shapes[area->shape];
         if (sg.is_sphere) {
-            const Real r = geometry.spheres[sg.index].radius;
-            area->area = 4.0 * kPi * r * r;
+            const Sphere &s = geometry.spheres[sg.index];
+            area->area = 4.0 * kPi * s.radius * s.radius;
+            area->center = s.center;
         } else {
             const TriangleMesh &m = geometry.meshes[sg.index];
             std::vector<Real> areas(m.triangles.size());
-            for (size_t i = 0; i < areas.size(); ++i) areas[i] = m.area(i);
+            Vec3 moment(0.0);
+            for (size_t i = 0; i < areas.size(); ++i) {
+                areas[i] = m.area(i);
+                const auto &t = m.triangles[i];
+                moment += (m.positions[t[0]] + m.positions[t[1]] + m.positions[t[2]]) * (areas[i] / 3);
+            }
             area->triangle_areas = Distribution1D(areas);
             area->area = area->triangle_areas.integral * Real(areas.size());
+            if (area->area > 0) area->center = moment / area->area;
         }
     } else if (auto *env = std::get_if<EnvironmentLight>(&light); env && env->width > 0) {
         // Sample in proportion to luminance times the sin(theta) area factor.

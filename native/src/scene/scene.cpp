@@ -20,8 +20,7 @@ int Scene::add_light(const Light &l) {
     lights.push_back(l);
     if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l)) ++point_and_directional;
     if (is_infinite(l)) infinite_lights.push_back(int(lights.size()) - 1);
-    if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l))
-        segment_lights.push_back(int(lights.size()) - 1);
+    if (!std::holds_alternative<EnvironmentLight>(l)) segment_lights.push_back(int(lights.size()) - 1);
     return int(lights.size()) - 1;
 }
 
