@@ -59,6 +59,7 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/cycles_sunrise.py --sky --append bench/RESULTS.md
 	$(PY) bench/sparse_cloud.py --append bench/RESULTS.md
 	$(PY) bench/spectral_sky.py --append bench/RESULTS.md
+	$(PY) bench/spectral_sunrise.py --append bench/RESULTS.md
 
 # The self-contained manylinux wheel that the Blender extension bundles (dist/).
 wheel: setup

@@ -58,7 +58,7 @@ spectral {', '.join(f'{v:.3f}' for v in chroma(colour))} against RGB {', '.join(
 RGB mode evaluates the air at 680 / 550 / 440 nm, where the sRGB red primary gathers light
 from around 600 nm (Rayleigh scattering 1.6x stronger there): its error against the spectral
 reference levels off at the colour bias, which no number of samples removes. Spectral mode
-costs four passes, about 4x the time per sample.
+shares each pixel's samples out over its four passes: equal spp, about equal time.
 """
     publish(section, sys.argv[2] if len(sys.argv) > 2 and sys.argv[1] == "--append" else None)
 

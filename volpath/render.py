@@ -18,7 +18,9 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
            out=None, sampler="sobol", light_distances=None):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
-    spp        samples per pixel (default: the scene's sampler ``sample_count``)
+    spp        samples per pixel (default: the scene's sampler ``sample_count``); in spectral
+               mode shared out over the wavelength passes, each rendering ceil(spp / passes)
+               of the pixel's samples with its three wavelengths (equal spp, equal cost)
     seed       the same seed gives a bit-identical image whatever the thread count
     threads    worker threads (default: all cores)
     tracer     "auto" or one of absorption, single, multiple, nee_mis, null_scattering
@@ -56,8 +58,11 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
         raise ValueError(f"unknown sampler '{sampler}' (expected one of: {', '.join(SAMPLERS)})")
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
-    args = (spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth, scene.max_null_collisions,
-            scene.light_distances if light_distances is None else bool(light_distances))
+    if scene.passes:  # spectral: the samples are shared out over the wavelength passes
+        per_pass = -(-spp // len(scene.passes))
+        spp = per_pass * len(scene.passes)
+    args = (per_pass if scene.passes else spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth,
+            scene.max_null_collisions, scene.light_distances if light_distances is None else bool(light_distances))
     if scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")
     else:
@@ -71,13 +76,15 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
 
 
 def _render_spectral(passes, args, progress, out, sobol):
-    """The passes of a spectral scene, each with the same seed (a path carries its three
-    wavelengths), integrated into linear sRGB (volpath/spectral.py)."""
+    """The passes of a spectral scene, integrated into linear sRGB (volpath/spectral.py).
+    Pass k renders the pixel samples k n .. (k + 1) n - 1 (n = args[0]): together the passes
+    are the samples of one render at n * passes spp, each path carrying its pass's three
+    wavelengths."""
     film = Film(len(passes))
     stats = {"seconds": 0.0, "nonfinite_samples": 0, "cancelled": False}
     for k, native in enumerate(passes):
         report = None if progress is None else (lambda f, k=k: progress((k + f) / len(passes)))
-        image, s = _core.render(native, *args, report, None, sobol)
+        image, s = _core.render(native, *args, report, None, sobol, k * args[0])
         stats["seconds"] += s["seconds"]
         stats["nonfinite_samples"] += s["nonfinite_samples"]
         if s["cancelled"]:

@@ -4,9 +4,10 @@ The native core carries three channels per path. In RGB mode they are red, green
 (the atmosphere's coefficients at 680 / 550 / 440 nm). In spectral mode the range
 360-830 nm is cut into 3K equal strata and the scene is rendered in K passes, each with
 three wavelengths (stratum midpoints, one from each third of the range) as its channels:
-every coefficient of the scene is evaluated at those wavelengths, and the passes, all with
-the same seed (one path carries its three wavelengths, as in hero-wavelength sampling),
-are integrated against the CIE 1931 matching functions into XYZ, then linear sRGB.
+every coefficient of the scene is evaluated at those wavelengths, and the passes, which
+share each pixel's samples out (a path carries its pass's three wavelengths, as in
+hero-wavelength sampling), are integrated against the CIE 1931 matching functions into
+XYZ, then linear sRGB.
 
 Spectra of RGB inputs: reflectances, albedos and extinction colours become smooth spectra
 by a partition of unity over the spectrum (blue below 470 nm, green 510-570 nm, red above

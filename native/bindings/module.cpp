@@ -104,7 +104,7 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
                     int rr_depth, int max_null_collisions, bool light_distances, py::object progress_cb,
-                    py::object out, bool low_discrepancy) {
+                    py::object out, bool low_discrepancy, uint64_t first_sample) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -112,6 +112,7 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     RenderSettings settings;
     settings.spp = spp;
     settings.seed = seed;
+    settings.first_sample = first_sample;
     settings.low_discrepancy = low_discrepancy;
     settings.threads = threads;
     settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions, light_distances};
@@ -380,7 +381,7 @@ PYBIND11_MODULE(_core, m) {
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
           py::arg("light_distances") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
-          py::arg("low_discrepancy") = true);
+          py::arg("low_discrepancy") = true, py::arg("first_sample") = 0);
 
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.

@@ -7,7 +7,9 @@ import pytest
 import volpath
 from volpath import _core
 from volpath.scene import ATMOSPHERE_PRESETS, rayleigh_coefficient
-from volpath.testing import chi2_directions
+from volpath.render import TRACERS
+from volpath.spectral import pass_wavelengths, white
+from volpath.testing import chi2_directions, max_z, render_batches
 
 import scenes as S
 
@@ -256,10 +258,12 @@ def test_tabulated_and_ratio_tracked_sun_agree():
 # -- spectral mode ---------------------------------------------------------------------------
 
 def test_spectral_mode_changes_only_what_depends_on_wavelength():
-    """Air without coefficients, a grey sphere under the sun and a grey sky: the spectral
-    passes see the same paths (same seed) scaled by the white illuminant, which the white
-    balance maps back to 1, so spectral equals RGB to rounding."""
-    def render(mode):
+    """Air without coefficients, a grey sphere under the sun and a grey sky: every spectral
+    pass sees the scene scaled by the white illuminant, which the white balance maps back to
+    1, so spectral and RGB agree (z-tests on 4x4 blocks over 6 batches). The passes share
+    the samples out: pass k renders samples 2k, 2k + 1 of 8, and with those alone it equals
+    RGB's render of the same samples to rounding."""
+    def render(mode, spp):
         scene = air_scene(f'<string name="mode" value="{mode}"/><rgb name="rayleigh_scattering" value="0"/>'
                           '<float name="mie_scattering" value="0"/><float name="mie_extinction" value="0"/>'
                           '<boolean name="ozone" value="false"/><boolean name="ground" value="false"/>',
@@ -268,11 +272,21 @@ def test_spectral_mode_changes_only_what_depends_on_wavelength():
                                  '<rgb name="reflectance" value="0.5"/></bsdf></shape>'
                                  '<emitter type="sun"><float name="elevation" value="40"/><rgb name="irradiance" value="3"/>'
                                  '</emitter>' + S.constant_env("0.2, 0.2, 0.2"))
-        return scene, volpath.render(scene, seed=5)
+        return scene
 
-    (rgb_scene, rgb), (spectral_scene, spectral) = render("rgb"), render("spectral")
+    rgb_scene, spectral_scene = render("rgb", 8), render("spectral", 8)
     assert len(rgb_scene.passes) == 0 and len(spectral_scene.passes) == 4
-    assert rgb.mean() > 0 and np.allclose(spectral, rgb, rtol=1e-5, atol=1e-7)
+    rgb, spectral = (render_batches(volpath.render, s, 6, block=4, spp=64) for s in (rgb_scene, spectral_scene))
+    assert rgb[0].mean() > 0 and max_z(*rgb, *spectral) < 5
+    assert spectral_scene.last_render["spp"] == 64
+
+    def samples(native, first):  # two samples of every pixel, from sample index `first` on
+        return _core.render(native, 2, 5, 0, TRACERS.index("null_scattering"), -1, 5, 1000, True,
+                            first_sample=first)[0]
+
+    assert not np.allclose(samples(rgb_scene.native, 0), samples(rgb_scene.native, 2))
+    for k, (native, lam) in enumerate(zip(spectral_scene.passes, pass_wavelengths(4))):
+        assert np.allclose(samples(native, 2 * k) / white(lam), samples(rgb_scene.native, 2 * k), rtol=1e-5, atol=1e-7)
 
 
 def test_spectral_uplift_round_trips_rgb_colours():

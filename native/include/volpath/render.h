@@ -12,6 +12,7 @@ namespace volpath {
 struct RenderSettings {
     int spp = 16;
     uint64_t seed = 0;
+    uint64_t first_sample = 0;  // sample indices first_sample .. first_sample + spp - 1
     bool low_discrepancy = true;  // Owen-scrambled Sobol; false: independent PCG32
     int threads = 0;  // 0: all hardware threads
     TracerConfig tracer;

@@ -56,7 +56,8 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                     for (int s = 0; s < settings.spp; ++s) {
                         // A pixel of many samples must not delay a cancel.
                         if ((s & 63) == 63 && progress.cancel.load(std::memory_order_relaxed)) break;
-                        Sampler sampler(settings.seed, pixel, uint64_t(s), settings.low_discrepancy);
+                        Sampler sampler(settings.seed, pixel, settings.first_sample + uint64_t(s),
+                                        settings.low_discrepancy);
                         const Vec2 o = filter_offset(cam, sampler);
                         const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);
                         const Spectrum L = radiance(scene, ray, cam.medium, sampler, settings.tracer);
