@@ -82,8 +82,16 @@ private:
     uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
                              uint32_t begin, uint32_t end);
     struct ShearedRay;  // per-ray set-up of the watertight triangle test
+    // The closest hit so far: its distance, and barycentrics for triangles. The point and
+    // normals are worked out once, for the hit that stays (finish).
+    struct Hit {
+        Real t;
+        uint32_t prim = 0;  // into prims_
+        Real b0 = 0, b1 = 0, b2 = 0;
+    };
     bool intersect_primitive(const Primitive &p, const Ray &ray, const ShearedRay &sheared, Real t_max,
-                             Intersection &its) const;
+                             Hit &hit) const;
+    void finish(const Hit &hit, const Ray &ray, Intersection &its) const;
 };
 
 // Ray-sphere distances in the numerically stable form (both roots; t0 <= t1).

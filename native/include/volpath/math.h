@@ -62,7 +62,11 @@ inline Vec3 max(const Vec3 &a, const Vec3 &b) {
     return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
 }
 inline Vec3 abs(const Vec3 &a) { return {std::abs(a.x), std::abs(a.y), std::abs(a.z)}; }
-inline Vec3 exp(const Vec3 &a) { return {std::exp(a.x), std::exp(a.y), std::exp(a.z)}; }
+// Grey arguments (grey media, most of them) take one exp instead of three.
+inline bool is_grey(const Vec3 &a) { return a.x == a.y && a.y == a.z; }
+inline Vec3 exp(const Vec3 &a) {
+    return is_grey(a) ? Vec3(std::exp(a.x)) : Vec3{std::exp(a.x), std::exp(a.y), std::exp(a.z)};
+}
 inline Vec3 clamp_zero(const Vec3 &a) { return max(a, Vec3(0.0)); }
 inline Real max_component(const Vec3 &a) { return std::max(a.x, std::max(a.y, a.z)); }
 inline Real average(const Vec3 &a) { return (a.x + a.y + a.z) * (1.0 / 3.0); }

@@ -116,11 +116,12 @@ Spectrum light_distance_pdf(const Light &light, const Ray &ray, Real t_end, cons
         return Spectrum(equiangular_pdf(equiangular(*c, ray.o, ray.d, ray.t_min, t_end), t));
     if (std::holds_alternative<EnvironmentLight>(light)) return Spectrum(0.0);
     const Real s = t - ray.t_min, length = t_end - ray.t_min;
-    Spectrum pdf;
-    for (int c = 0; c < 3; ++c)
-        pdf[c] = sigma_t[c] > 0 ? sigma_t[c] * std::exp(-sigma_t[c] * s) / -std::expm1(-sigma_t[c] * length)
-                                : (std::isfinite(length) ? 1 / length : 0);
-    return pdf;
+    auto truncated = [&](Real sigma) {
+        return sigma > 0 ? sigma * std::exp(-sigma * s) / -std::expm1(-sigma * length)
+                         : (std::isfinite(length) ? 1 / length : 0);
+    };
+    if (is_grey(sigma_t)) return Spectrum(truncated(sigma_t.x));
+    return {truncated(sigma_t.x), truncated(sigma_t.y), truncated(sigma_t.z)};
 }
 
 // Draws t for `light` in the path's channel and sets its per-channel density; false where

@@ -7,19 +7,20 @@ Real TriangleMesh::area(size_t i) const {
     return 0.5 * length(cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]));
 }
 
-// With o' = o - c and a unit d, the roots of t^2 + 2 b t + c' = 0 (b = o'.d).
-// c' = |o'|^2 - r^2 is formed as (|o'| - r)(|o'| + r), and the discriminant from the
-// distance f of the line to the centre, r^2 - |f|^2, so that neither cancels when the
-// ray starts a metre above a 6360 km planet or grazes it. The smaller-magnitude root
-// comes from c'/q with q = -b - sign(b) sqrt(disc).
+// With o' = o - c and a unit d, the roots of t^2 + 2 b t + c' = 0 (b = o'.d), with
+// c' = |o'|^2 - r^2. The discriminant is r^2 - |f|^2 with f the line's offset from the
+// centre (o' - b d), not b^2 - c', which cancels when the ray starts a metre above a
+// 6360 km planet or grazes it. The smaller-magnitude root comes from c'/q with
+// q = -b - sign(b) sqrt(disc). (c' itself keeps ~1e-9 relative precision 0.1 m above the
+// ground: |o'|^2 ~ 4e13 m^2 is exact to ~4e-3 m^2, and c' ~ 2 r h.)
 bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0,
                   Real &t1) {
     const Vec3 oc = o - center;
     const Real b = dot(oc, d);
-    const Real dist = length(oc);
-    const Real c = (dist - radius) * (dist + radius);
-    const Real f = length(oc - d * b);
-    const Real disc = (radius - f) * (radius + f);
+    const Real r2 = radius * radius;
+    const Real c = dot(oc, oc) - r2;
+    const Vec3 f = oc - d * b;
+    const Real disc = r2 - dot(f, f);
     if (disc < 0) return false;
     const Real q = -b - std::copysign(std::sqrt(disc), b);
     if (q == 0) {
@@ -185,23 +186,19 @@ struct Geometry::ShearedRay {
 };
 
 bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const ShearedRay &sr, Real t_max,
-                                   Intersection &its) const {
+                                   Hit &hit) const {
     const ShapeGeometry &s = shapes[prim.shape];
     if (s.is_sphere) {
         const Sphere &sp = spheres[s.index];
         Real t0, t1;
         if (!sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1)) return false;
-        Real t = t0 > ray.t_min ? t0 : t1;
+        const Real t = t0 > ray.t_min ? t0 : t1;
         if (!(t > ray.t_min && t < t_max)) return false;
-        const Vec3 n = normalize(ray.at(t) - sp.center);
-        its.t = t;
-        its.p = sp.center + n * sp.radius;  // re-projected onto the surface
-        its.n = its.ns = sp.flip_normals ? -n : n;
+        hit.t = t;
     } else {
         const TriangleMesh &m = meshes[s.index];
         const auto &tri = m.triangles[prim.index];
-        const Vec3 &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
-        const Vec3 a = p0 - ray.o, b = p1 - ray.o, c = p2 - ray.o;
+        const Vec3 a = m.positions[tri[0]] - ray.o, b = m.positions[tri[1]] - ray.o, c = m.positions[tri[2]] - ray.o;
         const Real ax = a[sr.kx] - sr.sx * a[sr.kz], ay = a[sr.ky] - sr.sy * a[sr.kz];
         const Real bx = b[sr.kx] - sr.sx * b[sr.kz], by = b[sr.ky] - sr.sy * b[sr.kz];
         const Real cx = c[sr.kx] - sr.sx * c[sr.kz], cy = c[sr.ky] - sr.sy * c[sr.kz];
@@ -211,20 +208,37 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const 
         if (det == 0) return false;
         const Real t = (u * sr.sz * a[sr.kz] + v * sr.sz * b[sr.kz] + w * sr.sz * c[sr.kz]) / det;
         if (!(t > ray.t_min && t < t_max)) return false;
-        const Real b0 = u / det, b1 = v / det, b2 = w / det;
-        its.t = t;
-        its.p = p0 * b0 + p1 * b1 + p2 * b2;
+        hit.t = t;
+        hit.b0 = u / det, hit.b1 = v / det, hit.b2 = w / det;
+    }
+    hit.prim = uint32_t(&prim - prims_.data());
+    return true;
+}
+
+void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
+    const Primitive &prim = prims_[hit.prim];
+    const ShapeGeometry &s = shapes[prim.shape];
+    its.t = hit.t;
+    if (s.is_sphere) {
+        const Sphere &sp = spheres[s.index];
+        const Vec3 n = normalize(ray.at(hit.t) - sp.center);
+        its.p = sp.center + n * sp.radius;  // re-projected onto the surface
+        its.n = its.ns = sp.flip_normals ? -n : n;
+    } else {
+        const TriangleMesh &m = meshes[s.index];
+        const auto &tri = m.triangles[prim.index];
+        const Vec3 &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
+        its.p = p0 * hit.b0 + p1 * hit.b1 + p2 * hit.b2;
         its.n = normalize(cross(p1 - p0, p2 - p0));
         its.ns = its.n;
         if (!m.normals.empty()) {
-            const Vec3 ns = m.normals[tri[0]] * b0 + m.normals[tri[1]] * b1 + m.normals[tri[2]] * b2;
+            const Vec3 ns = m.normals[tri[0]] * hit.b0 + m.normals[tri[1]] * hit.b1 + m.normals[tri[2]] * hit.b2;
             const Real len = length(ns);
             if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
         }
     }
     its.shape = prim.shape;
     its.prim = prim.index;
-    return true;
 }
 
 bool Geometry::intersect(const Ray &ray, Intersection &its) const {
@@ -234,7 +248,7 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     const Vec3 inv_d{inv(ray.d.x), inv(ray.d.y), inv(ray.d.z)};
     const bool negative[3] = {inv_d.x < 0, inv_d.y < 0, inv_d.z < 0};
     const ShearedRay sheared(ray.d);
-    Real t_max = ray.t_max;
+    Hit closest{ray.t_max};
     bool hit = false;
     uint32_t stack[64];
     int top = 0;
@@ -246,15 +260,11 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
                                       std::min(t0.z, t1.z), ray.t_min});
         // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
         const Real t_far = std::min({std::max(t0.x, t1.x), std::max(t0.y, t1.y),
-                                     std::max(t0.z, t1.z), t_max}) * (1 + 4e-16);
+                                     std::max(t0.z, t1.z), closest.t}) * (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
-                for (uint32_t i = 0; i < node.count; ++i) {
-                    if (intersect_primitive(prims_[node.first + i], ray, sheared, t_max, its)) {
-                        hit = true;
-                        t_max = its.t;
-                    }
-                }
+                for (uint32_t i = 0; i < node.count; ++i)
+                    hit |= intersect_primitive(prims_[node.first + i], ray, sheared, closest.t, closest);
             } else {
                 // Near child first.
                 if (negative[node.axis]) {
@@ -270,6 +280,7 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
         if (top == 0) break;
         current = stack[--top];
     }
+    if (hit) finish(closest, ray, its);
     return hit;
 }
 
