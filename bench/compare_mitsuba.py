@@ -97,8 +97,13 @@ def fit(points):
 
 
 def time_for(points, target):
+    """(seconds to reach target, fitted slope, bound): no extrapolation below the cheapest
+    render, which is the time (an upper bound, bound=True) when it already meets the target."""
     a, b = fit(points)
-    return float(np.exp((np.log(target) - a) / b)), b
+    cheapest = min(points)
+    if cheapest[1] <= target:
+        return float(cheapest[0]), b, True
+    return float(np.exp((np.log(target) - a) / b)), b, False
 
 
 def run_scene(key, args, variants):
@@ -132,8 +137,9 @@ def run_scene(key, args, variants):
         target = next(p for p in rows["volpath"] if p[2] == args.target_spp)[1]
     result = {"ref_spp": ref_spp, "ref_time": ref_time, "target": target, "mean": float(ref.mean()), "renderers": {}}
     for n, pts in rows.items():
-        t, slope = time_for([(p[0], p[1]) for p in pts], target)
-        result["renderers"][n] = {"time": t, "slope": slope, "points": [(p[2], p[0], p[1]) for p in pts]}
+        t, slope, bound = time_for([(p[0], p[1]) for p in pts], target)
+        result["renderers"][n] = {"time": t, "slope": slope, "bound": bound,
+                                  "points": [(p[2], p[0], p[1]) for p in pts]}
         if n != "volpath":
             # Agreement: the highest-spp peer image against the reference, by the mean.
             img_hi = pts[-1][3]
@@ -161,7 +167,9 @@ def markdown(results, args, variants):
     lines = [f"## Volpath vs Mitsuba 3 and Cycles 5.0 — {date}", "",
              f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
              f"spp shown. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
-             "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) + ".",
+             "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) +
+             "; a time marked ≤ is the cheapest render's, which already meets the target (no extrapolation "
+             "below it).",
              f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.", "",
              "| scene | ref spp | target RMSE (rel.) | Volpath s | " +
              " | ".join(f"{v} s" for v in peers) + " | Volpath / best peer | slopes (V; peers) | mean diff vs peers |",
@@ -173,8 +181,9 @@ def markdown(results, args, variants):
         ratio = f"**{rv['time'] / best:.2f}×**" if best else "—"
         slopes = f"{rv['slope']:.2f}; " + ", ".join(f"{m['slope']:.2f}" for m in mts if m)
         agree = ", ".join(f"{100 * m['agreement']['mean_diff_rel']:+.2f} %" for m in mts if m)
+        shown = lambda m: f"{'≤' if m['bound'] else ''}{m['time']:.3f}"  # noqa: E731
         lines.append(f"| ({key}) {SCENES[key][0]} | {r['ref_spp']} | {r['target']:.4g} ({r['target'] / max(r['mean'], 1e-12):.2%}) | "
-                     f"{rv['time']:.3f} | " + " | ".join(f"{m['time']:.3f}" if m else "—" for m in mts) +
+                     f"{shown(rv)} | " + " | ".join(shown(m) if m else "—" for m in mts) +
                      f" | {ratio} | {slopes} | {agree} |")
     lines += ["", "Raw points (spp, seconds, RMSE):", ""]
     for key, r in results.items():

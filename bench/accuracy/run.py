@@ -178,7 +178,7 @@ def time_to(pts, target, bias):
     above the target."""
     if bias is not None and bias > 0.7 * target:
         return None
-    t, _ = cm.time_for([(s, e) for _, s, e in pts], target)
+    t, _, _ = cm.time_for([(s, e) for _, s, e in pts], target)
     return t
 
 
