@@ -31,6 +31,11 @@ LADDER = (8, 32, 128)
 THREADS = 2
 
 
+def chroma(colour):
+    """r, g, b shares of a colour."""
+    return colour / colour.sum()
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", default="1,36,72")
@@ -85,10 +90,9 @@ def main():
                                  np.sqrt(np.mean((image - ref) ** 2)) / norm))
                     print(*rows[-1], flush=True)
                     if mode == "rgb" and spp == LADDER[-1]:
-                        chroma = lambda c: c / c.sum()  # noqa: E731
                         colours.append((frame, ref_seconds, chroma(ref.mean(axis=(0, 1))), chroma(image.mean(axis=(0, 1)))))
 
-    lines = [f"## RGB and spectral over the sunrise (issue #4; `bench/spectral_sunrise.py`)", "",
+    lines = ["## RGB and spectral over the sunrise (issue #4; `bench/spectral_sunrise.py`)", "",
              f"Frames {', '.join(map(str, frames))} of the default sunrise at {args.res}, {THREADS} threads, null-scattering "
              f"tracer; reference per frame: spectral mode at {REF_SPP} spp. In spectral mode the samples are shared out over "
              "the four wavelength passes, so equal spp costs about equal time. Display RMSE: the tone-mapped frame as the "

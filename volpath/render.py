@@ -58,10 +58,10 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
         raise ValueError(f"unknown sampler '{sampler}' (expected one of: {', '.join(SAMPLERS)})")
     if not 0 <= int(seed) < 2**64:
         raise ValueError("seed must be in [0, 2**64)")
-    if scene.passes:  # spectral: the samples are shared out over the wavelength passes
-        per_pass = -(-spp // len(scene.passes))
-        spp = per_pass * len(scene.passes)
-    args = (per_pass if scene.passes else spp, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth,
+    # Spectral: the samples are shared out over the wavelength passes.
+    per_pass = -(-spp // len(scene.passes)) if scene.passes else spp
+    spp = per_pass * max(len(scene.passes), 1)
+    args = (per_pass, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth,
             scene.max_null_collisions, scene.light_distances if light_distances is None else bool(light_distances))
     if scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")

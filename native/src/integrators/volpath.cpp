@@ -256,9 +256,11 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     // distance strategy among the segment lights.
     const Real select_nee = scene.light_select_pdf();
     const Real select_distance = vertex ? segment_light_select_pdf(scene) : 0.0;
+    const Real select_own = toward_light ? select_distance : select_nee;
+    const Real select_other = toward_light ? select_nee : select_distance;
     const Spectrum r_other_vertex = vertex ? other_distance_strategy(scene, *vertex, light) : Spectrum(0.0);
-    const Spectrum r_other = r_l * r_other_vertex * ((toward_light ? select_nee : select_distance) * ls.pdf);
-    r_l *= r_p * ((toward_light ? select_distance : select_nee) * ls.pdf);
+    const Spectrum r_other = r_l * r_other_vertex * (select_other * ls.pdf);
+    r_l *= r_p * (select_own * ls.pdf);
     r_u *= (toward_light ? r_other_vertex : r_p) * scatter_pdf;
     const Real r_scatter = ls.delta || !mis ? 0.0 : average(r_u);
     return beta * f * T_ray * ls.L * mis_over_a(average(r_l), average(r_other), r_scatter);
