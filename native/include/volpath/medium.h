@@ -189,20 +189,25 @@ constexpr int kMaxMajorantGridRes = 64;
 constexpr int kMaxMajorantSegments = 16;  // atmosphere pieces
 
 // Walks the majorant pieces along a ray in order, lazily: a grid's cells come from a 3D
-// DDA one at a time (a path that scatters early never pays for the rest of the ray);
-// other media list their few pieces up front.
+// DDA one at a time, the air's pieces one at a time (a path that scatters early never
+// pays for the rest of the ray). Nothing is listed up front: the iterator is built for
+// every segment and every shadow ray.
 class MajorantIterator {
 public:
     MajorantIterator(const Medium &m, const Ray &ray, Real t_max);
     bool next(MajorantSegment &seg);
 
 private:
-    MajorantSegment list_[kMaxMajorantSegments];
-    int count_ = 0, index_ = 0;
+    const Medium *medium_ = nullptr;  // null: nothing left
+    Ray ray_;
+    Real t_ = 0, t_end_ = 0;  // what is left of the ray: [t_, t_end_]
+    // The air: `pieces_` equal pieces of [t_start_, t_end_], the next is `piece_`.
+    Real t_start_ = 0;
+    int piece_ = 0, pieces_ = 0;
     // DDA state (grid media only).
     const GridMedium *grid_ = nullptr;
     int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
-    Real t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0}, t_ = 0, t_end_ = 0;
+    Real t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0};
 };
 
 // Tentative collisions against the majorant, distances sampled in `channel` (pbrt's
@@ -234,10 +239,12 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
                       Sampler &rng, Callback &&callback, Real forced_probability = 0) {
     MajorantIterator pieces(medium, ray, t_max);
     MajorantSegment seg;
-    // T_maj accumulates across pieces until the next tentative collision.
+    // T_maj accumulates across pieces until the next tentative collision. In the sampling
+    // channel it is exp(-tau) there, which is 1 - u by construction: while the majorant is
+    // grey, a collision needs no exponential.
     Spectrum T_maj(1.0);
-    Real tau = forced_probability > 0 ? -std::log1p(-rng.next_1d() * forced_probability)
-                                      : -std::log1p(-rng.next_1d());
+    Real u = rng.next_1d() * (forced_probability > 0 ? forced_probability : 1.0);
+    Real tau = -std::log1p(-u);
     while (pieces.next(seg)) {
         const Real sigma_c = seg.sigma_maj[channel];
         Real t = seg.t0;
@@ -249,11 +256,12 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
                 break;
             }
             t += dt;
-            T_maj *= exp(-seg.sigma_maj * dt);
+            T_maj = is_grey(T_maj) && is_grey(seg.sigma_maj) ? Spectrum(1 - u) : T_maj * exp(-seg.sigma_maj * dt);
             const Vec3 p = ray.at(t);
             if (!callback(p, t, medium_properties(medium, p), seg.sigma_maj, T_maj)) return Spectrum(1.0);
             T_maj = Spectrum(1.0);
-            tau = -std::log1p(-rng.next_1d());
+            u = rng.next_1d();
+            tau = -std::log1p(-u);
         }
     }
     return T_maj;

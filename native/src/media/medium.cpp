@@ -182,12 +182,9 @@ struct Phase {
     }
 };
 
-// Clips the ray to the unit cube of a grid (slab test on the affine image of the ray,
-// whose parameter t stays the world-space distance).
-bool clip_to_grid(const GridMedium &m, const Ray &ray, Real t_max, Real &t0, Real &t1) {
-    const Transform &to_grid = m.density.world_to_grid;
-    const Vec3 o = to_grid.point(ray.o), d = to_grid.vector(ray.d);
-    t0 = ray.t_min, t1 = t_max;
+// Clips a ray given in a grid's space (o, d; its parameter t stays the world distance)
+// to the grid's unit cube by the slab test.
+bool clip_to_unit_cube(const Vec3 &o, const Vec3 &d, Real &t0, Real &t1) {
     for (int a = 0; a < 3; ++a) {
         if (d[a] == 0) {
             if (o[a] < 0 || o[a] > 1) return false;
@@ -200,42 +197,22 @@ bool clip_to_grid(const GridMedium &m, const Ray &ray, Real t_max, Real &t0, Rea
     return t0 < t1;
 }
 
-// Pieces of homogeneous and atmospheric media, listed up front.
-struct ListPieces {
-    const Ray &ray;
-    Real t_max;
-    MajorantSegment *out;
-    int &count;
-    void operator()(const HomogeneousMedium &m) const {
-        if (t_max > ray.t_min) out[count++] = {ray.t_min, t_max, m.sigma_a + m.sigma_s};
-    }
-    void operator()(const GridMedium &) const {}  // walked lazily by DDA
-    // Clip to the top of the atmosphere, cut into pieces, and bound each piece by the
-    // coefficients at its lowest altitude. Altitude along a line is convex in t, so its
-    // minimum over [a, b] is at the closest approach to the centre clamped to [a, b]
-    // and its maximum at an end.
-    void operator()(const AtmosphereMedium &m) const {
-        Real r0, r1;
-        if (!sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1)) return;
-        const Real t0 = std::max(ray.t_min, r0), t1 = std::min(t_max, r1);
-        if (!(t0 < t1)) return;
-        const Real t_closest = dot(m.center - ray.o, ray.d);
-        const int n = std::clamp(m.pieces, 1, kMaxMajorantSegments);
-        for (int i = 0; i < n; ++i) {
-            const Real a = t0 + (t1 - t0) * i / n, b = i + 1 == n ? t1 : t0 + (t1 - t0) * (i + 1) / n;
-            const Real h_min = m.altitude(ray.at(std::clamp(t_closest, a, b)));
-            const Real h_max = std::max(m.altitude(ray.at(a)), m.altitude(ray.at(b)));
-            Real r, mie, o;
-            m.densities(h_min, r, mie, o);
-            // Ozone's tent peaks inside [h_min, h_max] or at the end nearer the peak.
-            const Real h_oz = std::clamp(m.ozone_peak, std::max(h_min, 0.0), std::max(h_max, 0.0));
-            const Spectrum sigma_maj = m.rayleigh_sigma_s * r + (m.mie_sigma_s + m.mie_sigma_a) * mie +
-                                       m.ozone_sigma_a * m.ozone_profile(h_oz);
-            // A small safety factor covers rounding in the altitude of the lowest point.
-            out[count++] = {a, b, sigma_maj * (1.0 + 1e-9)};
-        }
-    }
-};
+// The air's majorant over [a, b]: the coefficients at the piece's lowest altitude.
+// Altitude along a line is convex in t, so its minimum over [a, b] is at the closest
+// approach to the centre clamped to [a, b] and its maximum at an end.
+Spectrum air_majorant(const AtmosphereMedium &m, const Ray &ray, Real a, Real b) {
+    const Real t_closest = dot(m.center - ray.o, ray.d);
+    const Real h_min = m.altitude(ray.at(std::clamp(t_closest, a, b)));
+    const Real h_max = std::max(m.altitude(ray.at(a)), m.altitude(ray.at(b)));
+    Real r, mie, o;
+    m.densities(h_min, r, mie, o);
+    // Ozone's tent peaks inside [h_min, h_max] or at the end nearer the peak.
+    const Real h_oz = std::clamp(m.ozone_peak, std::max(h_min, 0.0), std::max(h_max, 0.0));
+    const Spectrum sigma_maj = m.rayleigh_sigma_s * r + (m.mie_sigma_s + m.mie_sigma_a) * mie +
+                               m.ozone_sigma_a * m.ozone_profile(h_oz);
+    // A small safety factor covers rounding in the altitude of the lowest point.
+    return sigma_maj * (1.0 + 1e-9);
+}
 }  // namespace
 
 bool AtmosphereMedium::tabulated_tau_to_top(const Vec3 &p, const Vec3 &d, Spectrum &tau) const {
@@ -486,17 +463,17 @@ Spectrum sun_optical_depth(const Medium &medium, const Ray &ray, Real t_max) {
     return optical_depth(medium, ray, t_max, kSunQuadratureSteps);
 }
 
-// 3D DDA through the majorant cells (Amanatides & Woo), in grid space where the ray's
-// parameter is still the world distance.
-MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) {
+MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) : ray_(ray) {
+    t_ = ray.t_min, t_end_ = t_max;
     if (const auto *g = std::get_if<GridMedium>(&m)) {
-        Real t0, t1;
-        if (!clip_to_grid(*g, ray, t_max, t0, t1)) return;
-        grid_ = g;
-        const int res = g->majorants.res;
+        // 3D DDA through the majorant cells (Amanatides & Woo), in grid space where the
+        // ray's parameter is still the world distance.
         const Transform &to_grid = g->density.world_to_grid;
         const Vec3 o = to_grid.point(ray.o), d = to_grid.vector(ray.d);
-        const Vec3 p0 = o + d * t0;
+        if (!clip_to_unit_cube(o, d, t_, t_end_)) return;
+        grid_ = g;
+        const int res = g->majorants.res;
+        const Vec3 p0 = o + d * t_;
         for (int a = 0; a < 3; ++a) {
             cell_[a] = std::clamp(int(p0[a] * res), 0, res - 1);
             if (d[a] == 0) {
@@ -505,19 +482,32 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
             }
             step_[a] = d[a] > 0 ? 1 : -1;
             const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) / res;
-            t_next_[a] = t0 + (boundary - p0[a]) / d[a];
+            t_next_[a] = t_ + (boundary - p0[a]) / d[a];
             t_delta_[a] = 1.0 / (res * std::abs(d[a]));
         }
-        t_ = t0, t_end_ = t1;
-        return;
+    } else if (const auto *air = std::get_if<AtmosphereMedium>(&m)) {
+        // Clipped to the top of the atmosphere and cut into equal pieces.
+        Real r0, r1;
+        if (!sphere_roots(air->center, air->top_radius, ray.o, ray.d, r0, r1)) return;
+        t_ = std::max(t_, r0), t_end_ = std::min(t_end_, r1);
+        t_start_ = t_, pieces_ = std::clamp(air->pieces, 1, kMaxMajorantSegments);
     }
-    std::visit(ListPieces{ray, t_max, list_, count_}, m);
+    if (t_ < t_end_) medium_ = &m;
 }
 
 bool MajorantIterator::next(MajorantSegment &seg) {
-    if (!grid_) {
-        if (index_ >= count_) return false;
-        seg = list_[index_++];
+    if (!medium_) return false;
+    if (const auto *h = std::get_if<HomogeneousMedium>(medium_)) {
+        seg = {t_, t_end_, h->sigma_a + h->sigma_s};
+        medium_ = nullptr;
+        return true;
+    }
+    if (const auto *air = std::get_if<AtmosphereMedium>(medium_)) {
+        const int i = piece_++;
+        const Real a = t_start_ + (t_end_ - t_start_) * i / pieces_;
+        const Real b = piece_ == pieces_ ? t_end_ : t_start_ + (t_end_ - t_start_) * piece_ / pieces_;
+        seg = {a, b, air_majorant(*air, ray_, a, b)};
+        if (piece_ == pieces_) medium_ = nullptr;
         return true;
     }
     const MajorantGrid &mg = grid_->majorants;

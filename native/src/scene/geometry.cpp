@@ -256,11 +256,10 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     for (;;) {
         const Node &node = nodes_[current];
         const Vec3 t0 = (node.bounds.lo - ray.o) * inv_d, t1 = (node.bounds.hi - ray.o) * inv_d;
-        const Real t_near = std::max({std::min(t0.x, t1.x), std::min(t0.y, t1.y),
-                                      std::min(t0.z, t1.z), ray.t_min});
+        const Vec3 t_in = min(t0, t1), t_out = max(t0, t1);
+        const Real t_near = std::max(std::max(t_in.x, t_in.y), std::max(t_in.z, ray.t_min));
         // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
-        const Real t_far = std::min({std::max(t0.x, t1.x), std::max(t0.y, t1.y),
-                                     std::max(t0.z, t1.z), closest.t}) * (1 + 4e-16);
+        const Real t_far = std::min(std::min(t_out.x, t_out.y), std::min(t_out.z, closest.t)) * (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
                 for (uint32_t i = 0; i < node.count; ++i)
