@@ -150,6 +150,26 @@ def test_light_distances_weigh_emitters_found_by_phase_sampling():
     assert max_z(on[0], on[1], phase[0], phase[1]) < Z_MAX
 
 
+@pytest.mark.parametrize("tracer", ["nee_mis", "null_scattering"])
+def test_constant_sky_is_left_to_phase_sampling(tracer):
+    """Under MIS, NEE never chooses a constant environment (Scene::mis_nee_lights): phase
+    sampling finds the sky alone, and NEE chooses the sun with probability 1. In chromatic
+    smoke under a sun and a sky (bench scene (d)'s lights), the image equals the sun alone
+    plus the sky alone rendered by the multiple tracer, which has no NEE at all. A wrong
+    selection pdf doubles the sun; an MIS weight that still counted NEE for the sky halves
+    the sky's light found by phase sampling: both far beyond the threshold."""
+    def smoke(*lights):
+        return volpath.load_string(S.scene(
+            S.camera(res=16, spp=16), S.floor(), S.homogeneous("m", "2, 1.5, 1", "0.9, 0.7, 0.5"),
+            S.medium_cube("m", 0.8), *lights, max_depth=8))
+
+    sky = S.constant_env("0.3, 0.4, 0.6")
+    both = render_batches(volpath.render, smoke(SUN, sky), 8, block=4, tracer=tracer)
+    sun = render_batches(volpath.render, smoke(SUN), 8, block=4, tracer=tracer)
+    sky_alone = render_batches(volpath.render, smoke(sky), 8, block=4, tracer="multiple")
+    assert max_z(both[0], both[1], sun[0] + sky_alone[0], np.hypot(sun[1], sky_alone[1])) < Z_MAX
+
+
 SUN_DISC = """<emitter type="sun"><vector name="direction" value="-0.3, -1, -0.4"/>
     <float name="angular_radius" value="0.05"/><rgb name="irradiance" value="2, 2, 2"/></emitter>"""
 

@@ -192,4 +192,7 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
                                 spp=4, seed=frame, tracer="null_scattering")
         assert np.array_equal(image, direct), frame
         images.append(image)
-    assert images[1][18, 24].mean() < images[0][18, 24].mean()  # four times denser: darker
+    # Four times denser: darker over the whole image (measured 0.93 and 0.89; the noise of a
+    # mean over the puff's pixels at 4 spp is ~0.005). One pixel is too coarse under a white
+    # sky: its few paths through the puff find the sky or not at all.
+    assert images[1].mean() < images[0].mean()

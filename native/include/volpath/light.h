@@ -50,6 +50,11 @@ struct SunLight {
 
 using Light = std::variant<PointLight, DirectionalLight, AreaLight, EnvironmentLight, SunLight>;
 
+inline bool is_constant_environment(const Light &l) {
+    const auto *env = std::get_if<EnvironmentLight>(&l);
+    return env && env->width == 0;
+}
+
 struct LightSample {
     Vec3 d;           // unit, from the reference point towards the light
     Real dist = 0;    // to the light; infinity for lights at infinity

@@ -45,6 +45,8 @@ struct Scene {
     // All but environment lights: NEE also from distances drawn for them on homogeneous
     // media segments (see SegmentVertex in the integrator). Indices into lights.
     std::vector<int> segment_lights;
+    // The lights NEE chooses from under MIS: all but constant environments (see add_light).
+    std::vector<int> mis_nee_lights;
     Camera camera;
     bool built = false;
 
@@ -55,7 +57,9 @@ struct Scene {
     int add_light(const Light &l);  // counts point_and_directional
     void build();
 
-    Real light_select_pdf() const { return lights.empty() ? 0.0 : 1.0 / Real(lights.size()); }
+    // NEE's probability of choosing `light`: uniform among mis_nee_lights under MIS, else
+    // among all lights.
+    Real light_select_pdf(int light, bool mis) const;
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
     // Whether a ray can hit an emitter (area lights, lights at infinity); with only point
     // and directional lights, light arrives by next-event estimation alone.

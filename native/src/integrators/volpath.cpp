@@ -155,7 +155,7 @@ Spectrum other_distance_strategy(const Scene &scene, const SegmentVertex &v, int
     return v.r_start * light_distance_pdf(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) / v.pdf;
 }
 
-// Next-event estimation from a scattering point: choose a light uniformly, sample a
+// Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf), sample a
 // point on it and trace a shadow ray through index-matched boundaries and media.
 // `eval(d, pdf)` returns the scattering value f (times the cosine, for surfaces) and sets
 // the pdf of sampling d per channel. r_p is the path's rescaled unidirectional pdf.
@@ -165,10 +165,11 @@ template <typename Eval>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
                        int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
                        Sampler &sampler, Eval &&eval, const SegmentVertex *vertex = nullptr) {
-    const int n_lights = int(scene.lights.size());
-    if (n_lights == 0) return Spectrum(0.0);
     const bool toward_light = vertex && vertex->light >= 0;
-    const int light = toward_light ? vertex->light : std::min(int(sampler.next_1d() * n_lights), n_lights - 1);
+    const int n_choices = int(mis ? scene.mis_nee_lights.size() : scene.lights.size());
+    if (n_choices == 0 && !toward_light) return Spectrum(0.0);
+    int light = toward_light ? vertex->light : std::min(int(sampler.next_1d() * n_choices), n_choices - 1);
+    if (!toward_light && mis) light = scene.mis_nee_lights[light];
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
         !(ls.pdf > 0) || is_black(ls.L))
@@ -254,7 +255,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     // The other distance strategy's NEE crosses the same shadow ray (r_l's factors so far),
     // and phase sampling starts from free flight's vertex. NEE chooses among all lights, a
     // distance strategy among the segment lights.
-    const Real select_nee = scene.light_select_pdf();
+    const Real select_nee = scene.light_select_pdf(light, mis);
     const Real select_distance = vertex ? segment_light_select_pdf(scene) : 0.0;
     const Real select_own = toward_light ? select_distance : select_nee;
     const Real select_other = toward_light ? select_nee : select_distance;
@@ -332,7 +333,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
                     r_light_distance = average(r_ld * light_distance_pdf(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
                                                (segment_light_select_pdf(scene) * pdf_light_dir));
                 }
-                const Spectrum r_light = r_l * (scene.light_select_pdf() * pdf_light_dir);
+                const Spectrum r_light = r_l * (scene.light_select_pdf(light, true) * pdf_light_dir);
                 L += beta * Le * mis_over_a(average(r_u), average(r_light), r_light_distance);
             }
         }
