@@ -123,6 +123,8 @@ def run_scene(key, args, variants):
     for r in renderers:
         pts = []
         for spp in args.ladder:
+            if spp < getattr(r, "min_spp", 1):
+                continue
             img, sec = r.render(spp, 1 + spp)
             pts.append((sec, rmse(img, ref), spp, img))
         rows[r.name] = pts
@@ -168,8 +170,8 @@ def markdown(results, args, variants):
              f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
              f"spp shown. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
              "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) +
-             "; a time marked ≤ is the cheapest render's, which already meets the target (no extrapolation "
-             "below it).",
+             " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation); a time "
+             "marked ≤ is the cheapest render's, which already meets the target (no extrapolation below it).",
              f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.", "",
              "| scene | ref spp | target RMSE (rel.) | Volpath s | " +
              " | ".join(f"{v} s" for v in peers) + " | Volpath / best peer | slopes (V; peers) | mean diff vs peers |",
@@ -197,7 +199,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scenes", default="abcde")
     ap.add_argument("--res", type=int, default=256)
-    ap.add_argument("--ladder", type=int, nargs="+", default=[4, 16, 64, 256])
+    ap.add_argument("--ladder", type=int, nargs="+", default=[1, 4, 16, 64, 256])
     ap.add_argument("--target-spp", type=int, default=64)
     ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
     ap.add_argument("--out", help="write the Markdown table here (replacing the Mitsuba section)")

@@ -183,6 +183,7 @@ def build(key, res, tmp):
 class Cycles:
     name = "cycles"
     sync_seconds = None  # per-render synchronisation, measured by the first render
+    min_spp = 4  # a 1-spp render is what sync_seconds measures: its net time would be 0
 
     def __init__(self, key, res, threads):
         import bpy
