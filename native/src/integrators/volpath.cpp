@@ -155,8 +155,8 @@ Spectrum other_distance_strategy(const Scene &scene, const SegmentVertex &v, int
     return v.r_start * light_distance_pdf(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) / v.pdf;
 }
 
-// Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf), sample a
-// point on it and trace a shadow ray through index-matched boundaries and media.
+// Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf),
+// sample a point on it and trace a shadow ray through index-matched boundaries and media.
 // `eval(d, pdf)` returns the scattering value f (times the cosine, for surfaces) and sets
 // the pdf of sampling d per channel. r_p is the path's rescaled unidirectional pdf.
 // `vertex`: the point is a SegmentVertex (its light is given if drawn toward it); the
@@ -253,8 +253,8 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     // Rays that leave guided air for nothing but suns never get there by phase sampling.
     if (left_guided_air && leads_to_suns_only(scene, scene.lights[light])) r_u = Spectrum(0.0);
     // The other distance strategy's NEE crosses the same shadow ray (r_l's factors so far),
-    // and phase sampling starts from free flight's vertex. NEE chooses among all lights, a
-    // distance strategy among the segment lights.
+    // and phase sampling starts from free flight's vertex. NEE and a distance strategy choose
+    // their light each among their own lights.
     const Real select_nee = scene.light_select_pdf(light, mis);
     const Real select_distance = vertex ? segment_light_select_pdf(scene) : 0.0;
     const Real select_own = toward_light ? select_distance : select_nee;
