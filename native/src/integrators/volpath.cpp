@@ -166,10 +166,13 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                        int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
                        Sampler &sampler, Eval &&eval, const SegmentVertex *vertex = nullptr) {
     const bool toward_light = vertex && vertex->light >= 0;
-    const int n_choices = int(mis ? scene.mis_nee_lights.size() : scene.lights.size());
-    if (n_choices == 0 && !toward_light) return Spectrum(0.0);
-    int light = toward_light ? vertex->light : std::min(int(sampler.next_1d() * n_choices), n_choices - 1);
-    if (!toward_light && mis) light = scene.mis_nee_lights[light];
+    int light = toward_light ? vertex->light : -1;
+    if (!toward_light) {
+        const int n = int(mis ? scene.mis_nee_lights.size() : scene.lights.size());
+        if (n == 0) return Spectrum(0.0);
+        const int i = std::min(int(sampler.next_1d() * n), n - 1);
+        light = mis ? scene.mis_nee_lights[i] : i;
+    }
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
         !(ls.pdf > 0) || is_black(ls.L))
