@@ -27,12 +27,14 @@ Spectrum VoxelGrid::lookup(const Vec3 &p) const {
         const float *v = &data[(size_t(b) * kBrickVoxels + (((i0[2] & M) * kBrick + (i0[1] & M)) * kBrick + (i0[0] & M))) *
                                channels];
         Spectrum out(0.0);
+        // In double from the start: a difference of two floats rounded to float would let
+        // the result exceed both voxels (by ~1e-6 relative), and the majorants with it.
+        auto lerp = [](Real a, Real b, Real t) { return a + (b - a) * t; };
         for (int c = 0; c < channels; ++c) {
             const float *q = v + c;
-            const Real x00 = q[0] + (q[dx] - q[0]) * w[0], x10 = q[dy] + (q[dy + dx] - q[dy]) * w[0];
-            const Real x01 = q[dz] + (q[dz + dx] - q[dz]) * w[0],
-                       x11 = q[dz + dy] + (q[dz + dy + dx] - q[dz + dy]) * w[0];
-            out[c] = (x00 + (x10 - x00) * w[1]) * (1 - w[2]) + (x01 + (x11 - x01) * w[1]) * w[2];
+            const Real x00 = lerp(q[0], q[dx], w[0]), x10 = lerp(q[dy], q[dy + dx], w[0]);
+            const Real x01 = lerp(q[dz], q[dz + dx], w[0]), x11 = lerp(q[dz + dy], q[dz + dy + dx], w[0]);
+            out[c] = lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2]);
         }
         return channels == 1 ? Spectrum(out[0]) : out;
     }
