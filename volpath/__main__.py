@@ -53,9 +53,11 @@ def _render(args, parser):
         print(f"auto: {tracer}: " + "; ".join(stats["auto"]["reasons"]))
     write_exr(out, image, metadata={"volpath_version": __version__, "spp": spp, "tracer": tracer,
                                     "seed": args.seed, "seconds": seconds,
-                                    "nonfinite_samples": stats["nonfinite_samples"]})
+                                    "nonfinite_samples": stats["nonfinite_samples"],
+                                    "negative_samples": stats["negative_samples"]})
     print(f"{out}: {scene.width}x{scene.height}, {spp} spp, tracer {tracer}, {seconds:.2f} s, "
-          f"{stats['nonfinite_samples']} non-finite samples discarded")
+          f"{stats['nonfinite_samples']} non-finite samples discarded, {stats['negative_samples']} negative "
+          f"samples clamped ({stats['clamped_share']:.1e} of the light)")
 
 
 def _info(args, parser):

@@ -140,7 +140,8 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fai
     sun = next(iter(entry["suns"].values()), None)
     metadata = {"frame": int(frame), "spp": int(stats["spp"]), "tracer": stats["tracer"], "seed": int(stats["seed"]),
                 "seconds": float(time.perf_counter() - start), "render_seconds": float(stats["seconds"]),
-                "nonfinite_samples": int(stats["nonfinite_samples"]), "volpath_version": __version__}
+                "nonfinite_samples": int(stats["nonfinite_samples"]), "negative_samples": int(stats["negative_samples"]),
+                "volpath_version": __version__}
     if sun is not None:
         metadata["sun_direction"] = np.asarray(sun, dtype=np.float64)
     return image, metadata

@@ -41,7 +41,10 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
                scene's integrator setting, on unless the file turns it off)
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
-    Statistics (seconds, non-finite samples discarded) are left in ``scene.last_render``.
+    Statistics are left in ``scene.last_render``: seconds, non-finite samples discarded, and
+    negative samples: only the air's control variates can give one (about one sample in
+    10^4-10^5 in a sunrise sky), its negative channels count as 0, and ``clamped_share`` is
+    the light that adds over the image's (a bias, ~1e-5 there).
     """
     tracer = tracer or scene.tracer
     max_depth = scene.max_depth if max_depth is None else int(max_depth)
@@ -81,12 +84,14 @@ def _render_spectral(passes, args, progress, out, sobol):
     are the samples of one render at n * passes spp, each path carrying its pass's three
     wavelengths."""
     film = Film(len(passes))
-    stats = {"seconds": 0.0, "nonfinite_samples": 0, "cancelled": False}
+    stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
     for k, native in enumerate(passes):
         report = None if progress is None else (lambda f, k=k: progress((k + f) / len(passes)))
         image, s = _core.render(native, *args, report, None, sobol, k * args[0])
         stats["seconds"] += s["seconds"]
-        stats["nonfinite_samples"] += s["nonfinite_samples"]
+        for key in ("nonfinite_samples", "negative_samples"):
+            stats[key] += s[key]
+        stats["clamped_share"] += s["clamped_share"] / len(passes)  # the passes carry similar light
         if s["cancelled"]:
             stats["cancelled"] = True
             break

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "volpath/render.h"
+#include "volpath/sky_map.h"
 
 namespace py = pybind11;
 using namespace volpath;
@@ -184,6 +185,8 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     py::dict info;
     info["seconds"] = stats.seconds;
     info["nonfinite_samples"] = stats.nonfinite_samples;
+    info["negative_samples"] = stats.negative_samples;
+    info["clamped_share"] = stats.clamped_share;
     info["cancelled"] = stats.cancelled;
     return py::make_tuple(image, info);
 }
@@ -525,6 +528,59 @@ PYBIND11_MODULE(_core, m) {
             t_out.mutable_at(i) = t, pdf.mutable_at(i) = p;
         }
         return py::make_tuple(tau, t_out, pdf);
+    });
+    // The light model of one guided segment (AirSegment::light_model at distances ts, and its
+    // integral), with or without the sky map's scattered light.
+    m.def("air_light_model", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts,
+                                bool with_map) {
+        if (!s.built) s.build();
+        const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
+        AirSegment seg = air_segment(air, Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, s.sun_guide());
+        if (with_map) {
+            if (!air.sky_map) throw std::invalid_argument("the medium has no sky map");
+            add_scattered_light(seg, *air.sky_map);
+        }
+        py::array_t<double> light({size_t(ts.shape(0)), size_t(3)});
+        auto r = light.mutable_unchecked<2>();
+        for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
+            const Spectrum v = seg.light_model(ts.at(i));
+            r(i, 0) = v.x, r(i, 1) = v.y, r(i, 2) = v.z;
+        }
+        const Spectrum total = seg.light_integral();
+        return py::make_tuple(light, Array3{total.x, total.y, total.z});
+    });
+    // The sky map seen from p: its pdf and radiance along dirs (n x 3), directions drawn for
+    // the uniform numbers us (m x 3: the unit square and the level's choice) with the
+    // densities sample() gives them, its Rayleigh integral for the incoming direction d_in,
+    // and whether it models the light well enough for control variates.
+    m.def("sky_map", [](Scene &s, int medium, Array3 p, Array3 d_in, const DoubleArray &dirs, const DoubleArray &us) {
+        if (!s.built) s.build();
+        const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
+        if (!air.sky_map) throw std::invalid_argument("the medium has no sky map");
+        const SkyMap &map = *air.sky_map;
+        const SkyMap::Point at = map.at(vec(p));
+        const size_t n = size_t(dirs.shape(0)), k = size_t(us.shape(0));
+        py::array_t<double> pdf(n), radiance({n, size_t(3)}), samples({k, size_t(3)}), sample_pdf(k);
+        auto rad = radiance.mutable_unchecked<2>();
+        for (size_t i = 0; i < n; ++i) {
+            const Vec3 d = normalize(Vec3(dirs.at(i, 0), dirs.at(i, 1), dirs.at(i, 2)));
+            pdf.mutable_at(i) = map.pdf(at, d);
+            const Spectrum L = map.radiance(at, d);
+            rad(i, 0) = L.x, rad(i, 1) = L.y, rad(i, 2) = L.z;
+        }
+        auto smp = samples.mutable_unchecked<2>();
+        for (size_t i = 0; i < k; ++i) {
+            Real q = 0;
+            const Vec3 d = map.sample(at, {us.at(i, 0), us.at(i, 1)}, us.at(i, 2), q);
+            smp(i, 0) = d.x, smp(i, 1) = d.y, smp(i, 2) = d.z;
+            sample_pdf.mutable_at(i) = q;
+        }
+        const Spectrum ri = map.rayleigh_integral(at, normalize(vec(d_in)));
+        py::dict out;
+        out["pdf"] = pdf, out["radiance"] = radiance, out["samples"] = samples, out["sample_pdf"] = sample_pdf;
+        out["rayleigh_integral"] = Array3{ri.x, ri.y, ri.z};
+        out["models_light"] = map.models_light;
+        return out;
     });
     m.def("optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int steps) {
         const Spectrum tau = optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max},

@@ -18,6 +18,7 @@ def assert_sane(image, scene, upper=None):
     assert np.all(np.isfinite(image)), "non-finite pixel"
     assert image.min() >= 0, "negative pixel"
     assert scene.last_render["nonfinite_samples"] == 0
+    assert scene.last_render["negative_samples"] == 0  # only the air's control variates clamp
     if upper is not None:
         assert image.max() <= upper
 

@@ -10,7 +10,16 @@
 //                      power heuristic; shadow rays cross index-matched boundaries.
 //   null_scattering  + heterogeneous media: delta tracking against a majorant, ratio
 //                      tracking on shadow rays (the air: a guided free flight and
-//                      tabulated transmittances, see AirSegment).
+//                      tabulated transmittances, see AirSegment; directions after
+//                      scattering partly from a map of the sky's light, see SkyMap).
+//
+// In a sky that nothing but the planet shadows, the air's light also has models with
+// known integrals, used as control variates (unbiased whatever the model): along each
+// segment the sun's single scattering and the sky map's scattered light (AirSegment::
+// light_model), at each scattering event Rayleigh's share of the map's light, and for
+// Russian roulette the map's prediction of what the path would bring back. A single
+// sample can then fall below zero (about one in 10^4-10^5 at sunrise); render() counts it
+// as zero and reports the light that adds.
 //
 // The tracers with NEE also estimate point and directional lights in homogeneous media
 // from distances drawn for those lights on every segment (equiangular sampling; the

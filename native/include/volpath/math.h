@@ -44,6 +44,7 @@ inline Vec3 operator*(Real s, const Vec3 &a) { return {a.x * s, a.y * s, a.z * s
 inline Vec3 operator/(const Vec3 &a, Real s) { return a * (1.0 / s); }
 inline Vec3 operator-(const Vec3 &a) { return {-a.x, -a.y, -a.z}; }
 inline Vec3 &operator+=(Vec3 &a, const Vec3 &b) { return a = a + b; }
+inline Vec3 &operator-=(Vec3 &a, const Vec3 &b) { return a = a - b; }
 inline Vec3 &operator*=(Vec3 &a, const Vec3 &b) { return a = a * b; }
 inline Vec3 &operator*=(Vec3 &a, Real s) { return a = a * s; }
 inline Vec3 &operator/=(Vec3 &a, Real s) { return a = a / s; }
@@ -63,6 +64,7 @@ inline Vec3 max(const Vec3 &a, const Vec3 &b) {
 }
 inline Vec3 abs(const Vec3 &a) { return {std::abs(a.x), std::abs(a.y), std::abs(a.z)}; }
 // Grey arguments (grey media, most of them) take one exp instead of three.
+inline bool operator==(const Vec3 &a, const Vec3 &b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 inline bool is_grey(const Vec3 &a) { return a.x == a.y && a.y == a.z; }
 inline Vec3 exp(const Vec3 &a) {
     return is_grey(a) ? Vec3(std::exp(a.x)) : Vec3{std::exp(a.x), std::exp(a.y), std::exp(a.z)};

@@ -84,6 +84,8 @@ struct GridMedium {
     PhaseFunction phase;
 };
 
+struct SkyMap;  // sky_map.h
+
 // A planet's air in metres (Bruneton 2017 / Hillaire 2020 model): Rayleigh and Mie
 // scattering with exponential density profiles, Mie absorption, and ozone absorption
 // with a tent profile. Altitude h = |p - center| - planet_radius; the medium fills the
@@ -111,6 +113,9 @@ struct AtmosphereMedium {
     // x_r = rho / H, x_mu = where the distance to the top lies between its extremes).
     static constexpr int kTableR = 256, kTableMu = 256;
     std::vector<Spectrum> tau_to_top;
+    // Where the scene's sun's scattered light comes from, for directions after scattering
+    // here (guided free flight only); set by Scene::build.
+    std::shared_ptr<const SkyMap> sky_map;
 
     Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }
     // Optical depth from p along d to the top of the atmosphere, from the table; false
@@ -125,7 +130,7 @@ struct AtmosphereMedium {
 // sun or directional light.
 struct SunGuide {
     Vec3 to_sun;
-    Spectrum radiance;  // only its balance across channels matters
+    Spectrum irradiance;  // at normal incidence, above the air (NEE's L / pdf)
 };
 
 // One ray segment through the air, tabulated for the guided free flight.
@@ -151,6 +156,9 @@ struct AirSegment {
         Real I_rayleigh, I_mie, I_ozone;  // their integrals from the first node
         Real weight;  // collision density, up to the factor 1 / mass of the last node
         Real mass;    // integral of the weight from the first node
+        // The light the air scatters back along the ray here, times T: the sun's single
+        // scattering (sigma_s phase T_sun E), and with a sky map the map's scattered light.
+        Spectrum light;
     };
     const AtmosphereMedium *air = nullptr;
     Ray ray;
@@ -162,8 +170,15 @@ struct AirSegment {
     Spectrum transmittance(Real t) const { return exp(-optical_depth(t)); }
     // A collision distance and its density over the segment; false if nothing collides.
     bool sample(Real u, Real &t, Real &pdf) const;
+    // The light scattered back along the segment, modelled from the nodes' `light` (per
+    // channel, exponential between nodes, linear next to a node where it is 0), and the
+    // model's exact integral over the segment: a control variate (see the integrator).
+    Spectrum light_model(Real t) const;
+    Spectrum light_integral() const;
 };
 AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun);
+// Adds the sky map's light, scattered back along the ray, to the nodes' light (see SkyMap).
+void add_scattered_light(AirSegment &segment, const SkyMap &map);
 
 using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;
 

@@ -27,6 +27,11 @@ struct RenderProgress {
 struct RenderStats {
     double seconds = 0;
     uint64_t nonfinite_samples = 0;  // discarded (counted, never silently dropped)
+    // Samples with a channel below zero, which only the air's control variates can give
+    // (rarely; see the integrator): such channels count as 0, and `clamped_share` is the
+    // light that adds, over the image's light (a bias, measured and stated).
+    uint64_t negative_samples = 0;
+    double clamped_share = 0;
     bool cancelled = false;
 };
 

@@ -69,6 +69,11 @@ struct Scene {
     // The first sun or directional light, which guides free flights in the air; set by build().
     std::optional<SunGuide> sun;
     const SunGuide *sun_guide() const { return sun ? &*sun : nullptr; }
+    // Whether NEE under MIS chooses that sun alone and nothing but a planet shadows it in
+    // the air (the only shapes are atmospheres' ground and top spheres): the light scattered
+    // in the air then has models whose integrals are known (AirSegment::light_model, the
+    // SkyMap), control variates for the guided free flight. Set by build().
+    bool sun_shadowed_by_planets_alone = false;
     std::string describe() const;
 };
 

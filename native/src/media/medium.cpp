@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "volpath/geometry.h"
+#include "volpath/sky_map.h"
 
 namespace volpath {
 
@@ -292,6 +293,7 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
         sunlit[k] = sun && m.tabulated_tau_to_top(p, sun->to_sun, tau_sun)
                         ? T * exp(-tau_sun) * (s_r * p_rayleigh + s_m * p_mie)
                         : Spectrum(0.0);
+        q.light = sun ? sun->irradiance * sunlit[k] : Spectrum(0.0);
     }
     s.n = K + 1;
     // The table's depth to the top from the start, along -d if d meets the ground ahead.
@@ -323,6 +325,20 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
                                                                          q.t - s.node[k - 1].t);
     }
     return s;
+}
+
+// Rayleigh's share exactly (SkyMap::rayleigh_integral); Mie's lobe is narrow, its share
+// taken as the map's light arriving along the ray.
+void add_scattered_light(AirSegment &s, const SkyMap &map) {
+    const AtmosphereMedium &m = *s.air;
+    const Spectrum mie_t = m.mie_sigma_s + m.mie_sigma_a;
+    for (int k = 0; k < s.n; ++k) {
+        AirSegment::Node &q = s.node[k];
+        const SkyMap::Point at = map.at(s.ray.at(q.t));
+        const Spectrum T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
+        q.light += T * (m.rayleigh_sigma_s * q.rayleigh * map.rayleigh_integral(at, s.ray.d) +
+                        m.mie_sigma_s * q.mie * map.radiance(at, s.ray.d));
+    }
 }
 
 Spectrum AirSegment::optical_depth(Real t_at) const {
@@ -360,6 +376,42 @@ bool AirSegment::sample(Real u, Real &t_out, Real &pdf) const {
     t_out = q.t + s;
     pdf = a * std::exp(x * s) / node[n - 1].mass;
     return pdf > 0 && std::isfinite(pdf);
+}
+
+namespace {
+// The model between two nodes a distance delta apart, at s in [0, delta], and its integral.
+Real light_between(Real a, Real b, Real delta, Real s) {
+    if (a > 0 && b > 0) return a * std::exp(std::log(b / a) * s / delta);
+    return a + (b - a) * s / delta;
+}
+Real light_integral_between(Real a, Real b, Real delta) {
+    if (a > 0 && b > 0) return exp_interpolated_integral(a, b, delta);
+    return 0.5 * (a + b) * delta;
+}
+}  // namespace
+
+Spectrum AirSegment::light_model(Real t) const {
+    if (n == 0 || t < node[0].t || t > node[n - 1].t) return Spectrum(0.0);
+    int k = 0;
+    while (k + 2 < n && node[k + 1].t <= t) ++k;
+    const Node &q = node[k], &r = node[k + 1];
+    const Real delta = r.t - q.t, s = std::clamp(t - q.t, 0.0, delta);
+    if (!(delta > 0)) return q.light;
+    return {light_between(q.light.x, r.light.x, delta, s), light_between(q.light.y, r.light.y, delta, s),
+            light_between(q.light.z, r.light.z, delta, s)};
+}
+
+Spectrum AirSegment::light_integral() const {
+    Spectrum total(0.0);
+    for (int k = 0; k + 1 < n; ++k) {
+        const Node &q = node[k], &r = node[k + 1];
+        const Real delta = r.t - q.t;
+        if (!(delta > 0)) continue;
+        total += Spectrum(light_integral_between(q.light.x, r.light.x, delta),
+                          light_integral_between(q.light.y, r.light.y, delta),
+                          light_integral_between(q.light.z, r.light.z, delta));
+    }
+    return total;
 }
 
 bool is_emissive(const Medium &m) {

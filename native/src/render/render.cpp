@@ -1,6 +1,7 @@
 #include "volpath/render.h"
 
 #include <chrono>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -40,10 +41,13 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
     const int tiles_x = (cam.width + kTileSize - 1) / kTileSize;
     progress.tiles_total = tile_count(cam);
     std::atomic<int64_t> next_tile{0};
-    std::atomic<uint64_t> nonfinite{0};
+    std::atomic<uint64_t> nonfinite{0}, negative{0};
+    std::mutex totals_mutex;
+    double clamped = 0, light = 0;  // channel averages, summed over samples
 
     auto worker = [&] {
-        uint64_t local_nonfinite = 0;
+        uint64_t local_nonfinite = 0, local_negative = 0;
+        double local_clamped = 0, local_light = 0;
         for (;;) {
             const int64_t tile = next_tile.fetch_add(1);
             if (tile >= progress.tiles_total || progress.cancel.load(std::memory_order_relaxed)) break;
@@ -61,11 +65,17 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                         const Vec2 o = filter_offset(cam, sampler);
                         const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);
                         const Spectrum L = radiance(scene, ray, cam.medium, sampler, settings.tracer);
-                        if (is_finite(L)) {
-                            sum += L;
-                        } else {
+                        if (!is_finite(L)) {
                             ++local_nonfinite;
+                            continue;
                         }
+                        const Spectrum kept = clamp_zero(L);
+                        if (!(kept == L)) {
+                            ++local_negative;
+                            local_clamped += average(kept - L);
+                        }
+                        local_light += average(kept);
+                        sum += kept;
                     }
                     const Spectrum mean = sum / Real(std::max(settings.spp, 1));
                     float *out = image + pixel * 3;
@@ -75,6 +85,9 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
             progress.tiles_done.fetch_add(1);
         }
         nonfinite.fetch_add(local_nonfinite);
+        negative.fetch_add(local_negative);
+        const std::lock_guard<std::mutex> lock(totals_mutex);
+        clamped += local_clamped, light += local_light;
     };
 
     int n_threads = settings.threads > 0 ? settings.threads : int(std::thread::hardware_concurrency());
@@ -87,6 +100,8 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
     RenderStats stats;
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     stats.nonfinite_samples = nonfinite.load();
+    stats.negative_samples = negative.load();
+    stats.clamped_share = light > 0 ? clamped / light : 0.0;
     stats.cancelled = progress.cancel.load();
     return stats;
 }

@@ -1,5 +1,7 @@
 #include "volpath/scene.h"
 
+#include "volpath/sky_map.h"
+
 #include <sstream>
 #include <stdexcept>
 
@@ -77,11 +79,46 @@ void Scene::build() {
     sun.reset();
     has_environment = false;
     for (const Light &l : lights) has_environment |= std::holds_alternative<EnvironmentLight>(l);
-    for (const Light &l : lights) {
-        if (const auto *s = std::get_if<SunLight>(&l)) sun = SunGuide{s->to_sun, s->radiance};
-        else if (const auto *d = std::get_if<DirectionalLight>(&l)) sun = SunGuide{-d->direction, d->irradiance};
-        if (sun) break;
+    int sun_light = -1;
+    for (int i = 0; i < int(lights.size()) && !sun; ++i) {
+        if (const auto *s = std::get_if<SunLight>(&lights[i])) sun = SunGuide{s->to_sun, s->radiance / uniform_cone_pdf(s->cos_max)};
+        else if (const auto *d = std::get_if<DirectionalLight>(&lights[i])) sun = SunGuide{-d->direction, d->irradiance};
+        if (sun) sun_light = i;
     }
+    // A sphere shadows no air if it is an atmosphere's ground (the tables know that shadow)
+    // or lies inside it, or if it is a null boundary, all around the same centre.
+    auto shadows_no_air = [&](int shape) {
+        const ShapeGeometry &g = geometry.shapes[shape];
+        if (!g.is_sphere) return false;
+        const Sphere &s = geometry.spheres[g.index];
+        for (const Medium &m : media) {
+            const auto *air = std::get_if<AtmosphereMedium>(&m);
+            if (air && s.center == air->center &&
+                (s.radius <= air->planet_radius * (1 + 1e-12) || is_null(bsdfs[shapes[shape].bsdf])))
+                return true;
+        }
+        return false;
+    };
+    // Each guided air gets the sun's sky map, its ground's albedo from the diffuse sphere
+    // that is its ground.
+    for (Medium &medium : media) {
+        auto *air = std::get_if<AtmosphereMedium>(&medium);
+        if (!air) continue;
+        air->sky_map.reset();
+        if (!sun || air->free_flight != AtmosphereMedium::FreeFlight::Guided) continue;
+        Spectrum albedo(0.0);
+        for (int i = 0; i < int(shapes.size()); ++i) {
+            const ShapeGeometry &g = geometry.shapes[i];
+            const auto *diffuse = std::get_if<DiffuseBSDF>(&bsdfs[shapes[i].bsdf].model);
+            if (g.is_sphere && diffuse && geometry.spheres[g.index].center == air->center &&
+                geometry.spheres[g.index].radius == air->planet_radius)
+                albedo = diffuse->reflectance;
+        }
+        air->sky_map = build_sky_map(*air, *sun, albedo, camera.to_world.point(Vec3(0.0)));
+    }
+    sun_shadowed_by_planets_alone = mis_nee_lights.size() == 1 && mis_nee_lights[0] == sun_light;
+    for (int i = 0; i < int(shapes.size()) && sun_shadowed_by_planets_alone; ++i)
+        sun_shadowed_by_planets_alone = shadows_no_air(i);
     if (camera.medium >= int(media.size())) throw std::out_of_range("invalid camera medium");
     built = true;
 }
