@@ -154,6 +154,7 @@ struct AirSegment {
         Real t, h;                  // distance along the ray, altitude
         Real rayleigh, mie, ozone;  // densities
         Real I_rayleigh, I_mie, I_ozone;  // their integrals from the first node
+        Spectrum T;                       // the transmittance from the first node they give
         Real weight;  // collision density, up to the factor 1 / mass of the last node
         Real mass;    // integral of the weight from the first node
         // The light the air scatters back along the ray here, times T: the sun's single
@@ -177,7 +178,8 @@ struct AirSegment {
     Spectrum light_integral() const;
 };
 AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun);
-// Adds the sky map's light, scattered back along the ray, to the nodes' light (see SkyMap).
+// Adds the sky map's light, scattered back along the ray, to the nodes' light (see SkyMap),
+// and guides the collisions by all that light.
 void add_scattered_light(AirSegment &segment, const SkyMap &map);
 
 using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;

@@ -72,12 +72,21 @@ const SkyMap *sky_map_of(const Medium &m) {
     const AtmosphereMedium *air = guided_air(m);
     return air ? air->sky_map.get() : nullptr;
 }
+// A scattering event in air with a sky map: the map's point, and the phase function's
+// lobes as drawn there: Rayleigh or Mie by their channel-averaged shares, so that the
+// direction's density is the same in every channel and the path's return carries the
+// weight the control variates give their models (the value stays per channel).
 struct SkyPoint {
     const SkyMap *map;
     SkyMap::Point at;
-    // The density of the mixture of a direction d of phase pdf `phase`.
-    Spectrum mixture_pdf(const Spectrum &phase, const Vec3 &d) const {
-        return phase * (1 - kSkyMapShare) + Spectrum(kSkyMapShare * map->pdf(at, d));
+    PhaseFunction lobes;
+    SkyPoint(const SkyMap *map, const Vec3 &p, const PhaseFunction &phase) : map(map), at(map->at(p)) {
+        const auto &air = std::get<RayleighMiePhase>(phase);
+        lobes = RayleighMiePhase{Spectrum(average(air.rayleigh_fraction)), air.g};
+    }
+    // The density of d under the mixture of the map and the lobes.
+    Spectrum pdf(const Vec3 &d_in, const Vec3 &d) const {
+        return phase_pdf(lobes, dot(d_in, d)) * (1 - kSkyMapShare) + Spectrum(kSkyMapShare * map->pdf(at, d));
     }
 };
 
@@ -376,8 +385,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         return sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
                              [&](const Vec3 &d, Spectrum &pdf_d) {
                                  const Real mu = dot(ray.d, d);
-                                 pdf_d = phase_pdf(phase, mu);
-                                 if (sky) pdf_d = sky->mixture_pdf(pdf_d, d);
+                                 pdf_d = sky ? sky->pdf(ray.d, d) : phase_pdf(phase, mu);
                                  return phase_eval(phase, mu);
                              },
                              vertex);
@@ -405,7 +413,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         ++depth;
         const PhaseFunction phase = medium_phase(m, p);
         const SkyMap *map = sky_map_of(m);
-        const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint{map, map->at(p)}) : std::nullopt;
+        const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase)) : std::nullopt;
         if (feat.nee) {
             L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
             // Nothing left that the path could find?
@@ -413,16 +421,17 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         }
         const Real u_lobe = sampler.next_1d();
         PhaseSample ps;
-        if (sky && u_lobe < kSkyMapShare) {
-            Real pdf_map;
-            const Vec3 d = map->sample(sky->at, sampler.next_2d(), u_lobe / kSkyMapShare, pdf_map);
-            const Real mu = dot(ray.d, d);
-            ps = {d, phase_eval(phase, mu), phase_pdf(phase, mu)};
+        if (!sky) {
+            ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
         } else {
-            const Real u = sky ? (u_lobe - kSkyMapShare) / (1 - kSkyMapShare) : u_lobe;
-            ps = phase_sample(phase, ray.d, sampler.next_2d(), u, channel);
+            Real pdf_map;
+            ps.d_out = u_lobe < kSkyMapShare
+                           ? map->sample(sky->at, sampler.next_2d(), u_lobe / kSkyMapShare, pdf_map)
+                           : phase_sample(sky->lobes, ray.d, sampler.next_2d(),
+                                          (u_lobe - kSkyMapShare) / (1 - kSkyMapShare), channel).d_out;
+            ps.value = phase_eval(phase, dot(ray.d, ps.d_out));
+            ps.pdf = sky->pdf(ray.d, ps.d_out);
         }
-        if (sky) ps.pdf = sky->mixture_pdf(ps.pdf, ps.d_out);
         const Real pdf_c = ps.pdf[channel];
         if (!(pdf_c > 0)) return false;
         const bool sky_model = sky && map->models_light && scene.sun_shadowed_by_planets_alone && feat.nee && !last_vertex();

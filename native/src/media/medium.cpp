@@ -247,10 +247,49 @@ Real exponential_integral(Real rho0, Real rho1, Real h0, Real h1, Real H, Real d
     return (rho0 - rho1) * H * dt / dh;
 }
 
-// Integral over [0, delta] of the exponential through (0, a) and (delta, b), a, b > 0.
+// Integral over [0, delta] of the exponential through (0, a) and (delta, b), a, b > 0:
+// (b - a) delta / ln(b / a), one logarithm; near b = a its series (r - 1) / ln r =
+// 1 + x / 2 - x^2 / 12 + ..., x = r - 1, where the quotient would cancel. (Not log1p(x):
+// for b / a below 1e-16, x rounds to -1.)
 Real exp_interpolated_integral(Real a, Real b, Real delta) {
-    const Real x = std::log(b / a) / delta;
-    return x == 0 ? a * delta : a * std::expm1(x * delta) / x;
+    const Real r = b / a, x = r - 1;
+    if (std::abs(x) < 1e-4) return a * delta * (1 + x * (0.5 - x / 12));
+    return (b - a) * delta / std::log(r);
+}
+}  // namespace
+
+namespace {
+// sigma_t at a node from its densities.
+Spectrum node_sigma_t(const AtmosphereMedium &m, const AirSegment::Node &q) {
+    return m.rayleigh_sigma_s * q.rayleigh + (m.mie_sigma_s + m.mie_sigma_a) * q.mie + m.ozone_sigma_a * q.ozone;
+}
+
+// The guide's node weights: half free flight, half `lit` (the sun's single scattering, or
+// all the light scattered back), each normalised by its trapezoidal integral per channel,
+// then averaged over the channels (the balance heuristic over per-channel densities: every
+// channel's integrand is covered, whose shapes differ most in the sun's transmittance). The
+// weights only need be positive wherever air is: the floor keeps them so.
+void set_weights(AirSegment &s, const Spectrum *free_flight, const Spectrum *lit) {
+    const int K = s.n - 1;
+    Spectrum mass_free(0.0), mass_lit(0.0);
+    for (int k = 1; k <= K; ++k) {
+        const Real dt = s.node[k].t - s.node[k - 1].t;
+        mass_free += (free_flight[k - 1] + free_flight[k]) * (0.5 * dt);
+        mass_lit += (lit[k - 1] + lit[k]) * (0.5 * dt);
+    }
+    if (!(max_component(mass_free) > 0)) {  // no air on the segment: nothing collides
+        for (int k = 0; k <= K; ++k) s.node[k].weight = s.node[k].mass = 0;
+        return;
+    }
+    const Real share_lit = max_component(mass_lit) > 0 ? 0.5 : 0.0;
+    const Spectrum w_free = safe_div(Spectrum(1 - share_lit), mass_free), w_lit = safe_div(Spectrum(share_lit), mass_lit);
+    for (int k = 0; k <= K; ++k) {
+        AirSegment::Node &q = s.node[k];
+        q.weight = std::max(average(w_free * free_flight[k] + w_lit * lit[k]), 1e-300);
+        q.mass = k == 0 ? 0.0
+                        : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
+                                                                         q.t - s.node[k - 1].t);
+    }
 }
 }  // namespace
 
@@ -287,8 +326,8 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
             q.I_ozone = prev.I_ozone + 0.5 * (prev.ozone + q.ozone) * dt;
         }
         const Spectrum s_r = m.rayleigh_sigma_s * q.rayleigh, s_m = m.mie_sigma_s * q.mie;
-        const Spectrum T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
-        free_flight[k] = (s_r + mie_t * q.mie + m.ozone_sigma_a * q.ozone) * T;
+        const Spectrum T = q.T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
+        free_flight[k] = node_sigma_t(m, q) * T;
         Spectrum tau_sun;
         sunlit[k] = sun && m.tabulated_tau_to_top(p, sun->to_sun, tau_sun)
                         ? T * exp(-tau_sun) * (s_r * p_rayleigh + s_m * p_mie)
@@ -301,29 +340,7 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     const Real r = length(v), mu_a = dot(v, ray.d) / r;
     s.downward = mu_a < 0 && r * r * (mu_a * mu_a - 1) + m.planet_radius * m.planet_radius >= 0;
     if (!m.tabulated_tau_to_top(ray.at(a), s.downward ? -ray.d : ray.d, s.tau_start)) s.tau_start = Spectrum(kInfinity);
-    // Each part normalised by its trapezoidal integral per channel, then averaged over the
-    // channels (the balance heuristic over per-channel densities: every channel's integrand
-    // is covered, whose shapes differ most in the sun's transmittance). The weights only
-    // need be positive wherever air is: the floor keeps them so.
-    Spectrum mass_free(0.0), mass_sun(0.0);
-    for (int k = 1; k <= K; ++k) {
-        const Real dt = s.node[k].t - s.node[k - 1].t;
-        mass_free += (free_flight[k - 1] + free_flight[k]) * (0.5 * dt);
-        mass_sun += (sunlit[k - 1] + sunlit[k]) * (0.5 * dt);
-    }
-    if (!(max_component(mass_free) > 0)) {  // no air on the segment: nothing collides
-        for (int k = 0; k <= K; ++k) s.node[k].weight = s.node[k].mass = 0;
-        return s;
-    }
-    const Real share_sun = max_component(mass_sun) > 0 ? 0.5 : 0.0;
-    const Spectrum w_free = safe_div(Spectrum(1 - share_sun), mass_free), w_sun = safe_div(Spectrum(share_sun), mass_sun);
-    for (int k = 0; k <= K; ++k) {
-        AirSegment::Node &q = s.node[k];
-        q.weight = std::max(average(w_free * free_flight[k] + w_sun * sunlit[k]), 1e-300);
-        q.mass = k == 0 ? 0.0
-                        : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
-                                                                         q.t - s.node[k - 1].t);
-    }
+    set_weights(s, free_flight, sunlit);
     return s;
 }
 
@@ -331,14 +348,22 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
 // taken as the map's light arriving along the ray.
 void add_scattered_light(AirSegment &s, const SkyMap &map) {
     const AtmosphereMedium &m = *s.air;
-    const Spectrum mie_t = m.mie_sigma_s + m.mie_sigma_a;
     for (int k = 0; k < s.n; ++k) {
         AirSegment::Node &q = s.node[k];
         const SkyMap::Point at = map.at(s.ray.at(q.t));
-        const Spectrum T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
-        q.light += T * (m.rayleigh_sigma_s * q.rayleigh * map.rayleigh_integral(at, s.ray.d) +
-                        m.mie_sigma_s * q.mie * map.radiance(at, s.ray.d));
+        q.light += q.T * (m.rayleigh_sigma_s * q.rayleigh * map.rayleigh_integral(at, s.ray.d) +
+                          m.mie_sigma_s * q.mie * map.radiance(at, s.ray.d));
     }
+    // Collisions then follow all the scattered light, not the sun's alone: twice and more
+    // scattered light is gathered where the map's light scatters (measured on the 2-degree
+    // sky: 1.07x less time to equal error).
+    Spectrum free_flight[AirSegment::kNodes], lit[AirSegment::kNodes];
+    for (int k = 0; k < s.n; ++k) {
+        const AirSegment::Node &q = s.node[k];
+        free_flight[k] = node_sigma_t(m, q) * q.T;
+        lit[k] = q.light;
+    }
+    set_weights(s, free_flight, lit);
 }
 
 Spectrum AirSegment::optical_depth(Real t_at) const {
