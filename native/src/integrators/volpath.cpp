@@ -501,6 +501,23 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         const SkyMap *map = sky_map_of(m);
         const bool map_model = light_model && map && map->models_light &&
                                (feat.max_depth < 0 || depth + 2 < feat.max_depth);
+        // Whether the ray leaves the air for empty space (where, under suns alone, only a
+        // sun's disc could be found).
+        auto leaves_for_empty_space = [&] {
+            if (!hit || scene.has_environment || !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) ||
+                medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) >= 0)
+                return false;
+            Intersection beyond;
+            return !scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond);
+        };
+        // The camera's pass-through branch only looks for what lies beyond: if that is empty
+        // space and no sun's disc, nothing (sky pixels, most of a sky's image).
+        if (branch == Branch::PassThrough && leaves_for_empty_space()) {
+            bool sees_a_sun = false;
+            for (int index : scene.infinite_lights)
+                sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
+            if (!sees_a_sun) return Flight::Ended;
+        }
         // The camera's pass-through branch needs only T: no sun lookups for the guide.
         AirSegment seg = air_segment(*guided_air(m), ray, t_end, branch == Branch::PassThrough ? nullptr : scene.sun_guide());
         const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
@@ -510,12 +527,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             // Leaving the air for empty space under suns alone, a path could only find a
             // sun's disc, which NEE from the last scattering event takes (see sample_direct):
             // always collide. Not after the camera or a specular bounce: no NEE saw the disc.
-            if (p_collide > 0 && !specular_bounce && hit && !scene.has_environment &&
-                is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) &&
-                medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) < 0) {
-                Intersection beyond;
-                if (!scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond)) p_collide = 1;
-            }
+            if (p_collide > 0 && !specular_bounce && leaves_for_empty_space()) p_collide = 1;
         }
         // Not across the planet's shadow: the model runs linearly into it from the last lit
         // node, where NEE finds nothing, so there it overestimates by far.

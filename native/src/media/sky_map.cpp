@@ -213,10 +213,13 @@ struct Cell {
     Vec2 xy;
     Real width;
 };
+size_t cell_index(Real x, Real y) {
+    return size_t(std::clamp(int(y * NZ), 0, NZ - 1)) * NP + size_t(std::clamp(int(x * NP), 0, NP - 1));
+}
 Cell cell_of(Real x, Real mu, Real mu_h) {
     const Vec2 xy{x, warped_zenith(mu, mu_h)};
-    const int iz = std::clamp(int(xy.y * NZ), 0, NZ - 1), ip = std::clamp(int(xy.x * NP), 0, NP - 1);
-    return {size_t(iz) * NP + ip, xy, zenith_cosine(Real(iz + 1) / NZ, mu_h) - zenith_cosine(Real(iz) / NZ, mu_h)};
+    const int iz = std::clamp(int(xy.y * NZ), 0, NZ - 1);
+    return {cell_index(xy.x, xy.y), xy, zenith_cosine(Real(iz + 1) / NZ, mu_h) - zenith_cosine(Real(iz) / NZ, mu_h)};
 }
 struct Direction {
     Real x, mu;
@@ -257,7 +260,7 @@ Spectrum SkyMap::radiance(const Point &at, const Vec3 &d) const {
     const Direction dir(at, d);
     Spectrum L(0.0);
     for (int i = 0; i < 2; ++i)
-        if (at.weight[i] > 0) L += at.level[i]->radiance[cell_of(dir.x, dir.mu, at.horizon[i]).index] * at.weight[i];
+        if (at.weight[i] > 0) L += at.level[i]->radiance[cell_index(dir.x, warped_zenith(dir.mu, at.horizon[i]))] * at.weight[i];
     return L;
 }
 
