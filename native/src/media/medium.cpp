@@ -348,11 +348,21 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
 // taken as the map's light arriving along the ray.
 void add_scattered_light(AirSegment &s, const SkyMap &map) {
     const AtmosphereMedium &m = *s.air;
+    // The map's light changes slowly along the ray (the densities do not): looked up at
+    // every other node, linear in t between.
+    Spectrum rayleigh[AirSegment::kNodes], mie[AirSegment::kNodes];
+    for (int k = 0; k < s.n; ++k) {
+        if (k % 2 == 1 && k + 1 < s.n) continue;
+        const SkyMap::Point at = map.at(s.ray.at(s.node[k].t));
+        rayleigh[k] = map.rayleigh_integral(at, s.ray.d), mie[k] = map.radiance(at, s.ray.d);
+    }
+    for (int k = 1; k + 1 < s.n; k += 2) {
+        const Real w = (s.node[k].t - s.node[k - 1].t) / (s.node[k + 1].t - s.node[k - 1].t);
+        rayleigh[k] = rayleigh[k - 1] * (1 - w) + rayleigh[k + 1] * w, mie[k] = mie[k - 1] * (1 - w) + mie[k + 1] * w;
+    }
     for (int k = 0; k < s.n; ++k) {
         AirSegment::Node &q = s.node[k];
-        const SkyMap::Point at = map.at(s.ray.at(q.t));
-        q.light += q.T * (m.rayleigh_sigma_s * q.rayleigh * map.rayleigh_integral(at, s.ray.d) +
-                          m.mie_sigma_s * q.mie * map.radiance(at, s.ray.d));
+        q.light += q.T * (m.rayleigh_sigma_s * q.rayleigh * rayleigh[k] + m.mie_sigma_s * q.mie * mie[k]);
     }
     // Collisions then follow all the scattered light, not the sun's alone: twice and more
     // scattered light is gathered where the map's light scatters (measured on the 2-degree
