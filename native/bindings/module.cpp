@@ -535,11 +535,9 @@ PYBIND11_MODULE(_core, m) {
                                 bool with_map) {
         if (!s.built) s.build();
         const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
-        AirSegment seg = air_segment(air, Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, s.sun_guide());
-        if (with_map) {
-            if (!air.sky_map) throw std::invalid_argument("the medium has no sky map");
-            add_scattered_light(seg, *air.sky_map);
-        }
+        if (with_map && !air.sky_map) throw std::invalid_argument("the medium has no sky map");
+        const AirSegment seg = air_segment(air, Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, s.sun_guide(),
+                                           with_map ? air.sky_map.get() : nullptr);
         py::array_t<double> light({size_t(ts.shape(0)), size_t(3)});
         auto r = light.mutable_unchecked<2>();
         for (py::ssize_t i = 0; i < ts.shape(0); ++i) {

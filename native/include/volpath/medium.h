@@ -176,11 +176,11 @@ struct AirSegment {
     // model's exact integral over the segment: a control variate (see the integrator).
     Spectrum light_model(Real t) const;
     Spectrum light_integral() const;
+    bool models_light = false;  // the nodes do not straddle the planet's shadow (the model holds)
 };
-AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun);
-// Adds the sky map's light, scattered back along the ray, to the nodes' light (see SkyMap),
-// and guides the collisions by all that light.
-void add_scattered_light(AirSegment &segment, const SkyMap &map);
+// `map`: the nodes' light includes the sky map's scattered light (see SkyMap).
+AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun,
+                       const SkyMap *map = nullptr);
 
 using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;
 

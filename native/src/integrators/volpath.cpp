@@ -191,14 +191,15 @@ Spectrum other_distance_strategy(const Scene &scene, const SegmentVertex &v, int
 
 // Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf),
 // sample a point on it and trace a shadow ray through index-matched boundaries and media.
-// `eval(d, pdf)` returns the scattering value f (times the cosine, for surfaces) and sets
-// the pdf of sampling d per channel. r_p is the path's rescaled unidirectional pdf.
+// `eval(d)` returns the scattering value f (times the cosine, for surfaces), `pdf(d)` the
+// density of sampling d per channel: asked for only where phase or BSDF sampling could
+// find the light too (MIS). r_p is the path's rescaled unidirectional pdf.
 // `vertex`: the point is a SegmentVertex (its light is given if drawn toward it); the
 // weight then counts both distance strategies, and phase sampling from free flight's.
-template <typename Eval>
+template <typename Eval, typename Pdf>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
                        int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
-                       Sampler &sampler, Eval &&eval, const SegmentVertex *vertex = nullptr) {
+                       Sampler &sampler, Eval &&eval, Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
     const bool toward_light = vertex && vertex->light >= 0;
     int light = toward_light ? vertex->light : -1;
     if (!toward_light) {
@@ -211,8 +212,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
         !(ls.pdf > 0) || is_black(ls.L))
         return Spectrum(0.0);
-    Spectrum scatter_pdf;
-    const Spectrum f = eval(ls.d, scatter_pdf);
+    const Spectrum f = eval(ls.d);
     if (is_black(f)) return Spectrum(0.0);
 
     // Transmittance along the shadow ray. Homogeneous media have it in closed form;
@@ -299,8 +299,8 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     const Spectrum r_other_vertex = vertex ? other_distance_strategy(scene, *vertex, light) : Spectrum(0.0);
     const Spectrum r_other = r_l * r_other_vertex * (select_other * ls.pdf);
     r_l *= r_p * (select_own * ls.pdf);
-    r_u *= (toward_light ? r_other_vertex : r_p) * scatter_pdf;
-    const Real r_scatter = ls.delta || !mis ? 0.0 : average(r_u);
+    const Real r_scatter =
+        ls.delta || !mis || is_black(r_u) ? 0.0 : average(r_u * (toward_light ? r_other_vertex : r_p) * pdf(ls.d));
     return beta * f * T_ray * ls.L * mis_over_a(average(r_l), average(r_other), r_scatter);
 }
 
@@ -382,13 +382,10 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
     // directions after scattering there mix in the sky map's.
     auto direct_in_medium = [&](const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p,
                                 const Spectrum &r_p, const SegmentVertex *vertex, const SkyPoint *sky = nullptr) {
-        return sample_direct(scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
-                             [&](const Vec3 &d, Spectrum &pdf_d) {
-                                 const Real mu = dot(ray.d, d);
-                                 pdf_d = sky ? sky->pdf(ray.d, d) : phase_pdf(phase, mu);
-                                 return phase_eval(phase, mu);
-                             },
-                             vertex);
+        return sample_direct(
+            scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
+            [&](const Vec3 &d) { return phase_eval(phase, dot(ray.d, d)); },
+            [&](const Vec3 &d) { return sky ? sky->pdf(ray.d, d) : phase_pdf(phase, dot(ray.d, d)); }, vertex);
     };
 
     // The segment lights of the homogeneous segment [ray.t_min, t_end] that free flight is
@@ -438,11 +435,11 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         // The map's light scattered by Rayleigh's share as a control variate: its integral
         // over directions (exact, SkyMap::rayleigh_integral), less its value in the direction
         // drawn (the path then brings the light that truly arrives from there).
+        const Spectrum arriving = sky_model ? map->radiance(sky->at, ps.d_out) : Spectrum(0.0);
         if (sky_model) {
             const Spectrum &rayleigh = std::get<RayleighMiePhase>(phase).rayleigh_fraction;
             L += beta * rayleigh *
-                 (map->rayleigh_integral(sky->at, ray.d) -
-                  map->radiance(sky->at, ps.d_out) * (rayleigh_eval(dot(ray.d, ps.d_out)) / pdf_c)) /
+                 (map->rayleigh_integral(sky->at, ray.d) - arriving * (rayleigh_eval(dot(ray.d, ps.d_out)) / pdf_c)) /
                  average(r_u);
         }
         // Lobe mixtures make the direction's pdf differ per channel.
@@ -465,7 +462,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         // sample's radiance so far below zero.
         if (sky_model) {
             if (depth >= kSkyRouletteDepth) {
-                const Spectrum M = beta * map->radiance(sky->at, ps.d_out) / average(r_u);
+                const Spectrum M = beta * arriving / average(r_u);
                 Real q = kSkyRouletteSurvival;
                 for (int c = 0; c < 3; ++c)
                     if (M[c] > 0) q = std::max(q, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
@@ -519,7 +516,9 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             if (!sees_a_sun) return Flight::Ended;
         }
         // The camera's pass-through branch needs only T: no sun lookups for the guide.
-        AirSegment seg = air_segment(*guided_air(m), ray, t_end, branch == Branch::PassThrough ? nullptr : scene.sun_guide());
+        const AirSegment seg = air_segment(*guided_air(m), ray, t_end,
+                                           branch == Branch::PassThrough ? nullptr : scene.sun_guide(),
+                                           map_model ? map : nullptr);
         const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
         Real p_collide = branch == Branch::Collide ? 1 : 0;
         if (branch == Branch::All) {
@@ -529,12 +528,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             // always collide. Not after the camera or a specular bounce: no NEE saw the disc.
             if (p_collide > 0 && !specular_bounce && leaves_for_empty_space()) p_collide = 1;
         }
-        // Not across the planet's shadow: the model runs linearly into it from the last lit
-        // node, where NEE finds nothing, so there it overestimates by far.
-        bool lit = true, shadowed = true;
-        for (int k = 0; k < seg.n; ++k) (is_black(seg.node[k].light) ? lit : shadowed) = false;
-        const bool controlled = light_model && p_collide > 0 && (lit || shadowed);
-        if (controlled && map_model) add_scattered_light(seg, *map);
+        const bool controlled = light_model && p_collide > 0 && seg.models_light;
         if (controlled) L += beta * seg.light_integral() / average(r_u);
         bool collide = branch == Branch::Collide;
         Real p_event = 1;
@@ -713,11 +707,10 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         const Frame frame(its.ns);
         const Vec3 wi = frame.to_local(-ray.d);
         if (feat.nee && !is_delta(bsdf)) {
-            L += sample_direct(scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler, [&](const Vec3 &d, Spectrum &pdf_d) {
-                                   const Vec3 wo = frame.to_local(d);
-                                   pdf_d = Spectrum(bsdf_pdf(bsdf, wi, wo));
-                                   return bsdf_eval(bsdf, wi, wo);
-                               });
+            L += sample_direct(
+                scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler,
+                [&](const Vec3 &d) { return bsdf_eval(bsdf, wi, frame.to_local(d)); },
+                [&](const Vec3 &d) { return Spectrum(bsdf_pdf(bsdf, wi, frame.to_local(d))); });
             if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return L;
         }
         BSDFSample bs;

@@ -259,23 +259,25 @@ Real exp_interpolated_integral(Real a, Real b, Real delta) {
 }  // namespace
 
 namespace {
+void add_scattered_light(AirSegment &s, const SkyMap &map);
+
 // sigma_t at a node from its densities.
 Spectrum node_sigma_t(const AtmosphereMedium &m, const AirSegment::Node &q) {
     return m.rayleigh_sigma_s * q.rayleigh + (m.mie_sigma_s + m.mie_sigma_a) * q.mie + m.ozone_sigma_a * q.ozone;
 }
 
-// The guide's node weights: half free flight, half `lit` (the sun's single scattering, or
-// all the light scattered back), each normalised by its trapezoidal integral per channel,
-// then averaged over the channels (the balance heuristic over per-channel densities: every
-// channel's integrand is covered, whose shapes differ most in the sun's transmittance). The
-// weights only need be positive wherever air is: the floor keeps them so.
-void set_weights(AirSegment &s, const Spectrum *free_flight, const Spectrum *lit) {
+// The guide's node weights: half free flight, half the nodes' light (the sun's single
+// scattering, or all the light scattered back), each normalised by its trapezoidal integral
+// per channel, then averaged over the channels (the balance heuristic over per-channel
+// densities: every channel's integrand is covered, whose shapes differ most in the sun's
+// transmittance). The weights only need be positive wherever air is: the floor keeps them so.
+void set_weights(AirSegment &s, const Spectrum *free_flight) {
     const int K = s.n - 1;
     Spectrum mass_free(0.0), mass_lit(0.0);
     for (int k = 1; k <= K; ++k) {
         const Real dt = s.node[k].t - s.node[k - 1].t;
         mass_free += (free_flight[k - 1] + free_flight[k]) * (0.5 * dt);
-        mass_lit += (lit[k - 1] + lit[k]) * (0.5 * dt);
+        mass_lit += (s.node[k - 1].light + s.node[k].light) * (0.5 * dt);
     }
     if (!(max_component(mass_free) > 0)) {  // no air on the segment: nothing collides
         for (int k = 0; k <= K; ++k) s.node[k].weight = s.node[k].mass = 0;
@@ -285,7 +287,7 @@ void set_weights(AirSegment &s, const Spectrum *free_flight, const Spectrum *lit
     const Spectrum w_free = safe_div(Spectrum(1 - share_lit), mass_free), w_lit = safe_div(Spectrum(share_lit), mass_lit);
     for (int k = 0; k <= K; ++k) {
         AirSegment::Node &q = s.node[k];
-        q.weight = std::max(average(w_free * free_flight[k] + w_lit * lit[k]), 1e-300);
+        q.weight = std::max(average(w_free * free_flight[k] + w_lit * q.light), 1e-300);
         q.mass = k == 0 ? 0.0
                         : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
                                                                          q.t - s.node[k - 1].t);
@@ -293,7 +295,7 @@ void set_weights(AirSegment &s, const Spectrum *free_flight, const Spectrum *lit
 }
 }  // namespace
 
-AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun) {
+AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun, const SkyMap *map) {
     AirSegment s;
     s.air = &m, s.ray = ray;
     Real r0, r1;
@@ -308,7 +310,7 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     const Real mu = sun ? dot(ray.d, sun->to_sun) : 0;
     const Real p_rayleigh = rayleigh_eval(mu), p_mie = cornette_shanks_eval(m.mie_g, mu);
     const Spectrum mie_t = m.mie_sigma_s + m.mie_sigma_a;
-    Spectrum free_flight[AirSegment::kNodes], sunlit[AirSegment::kNodes];
+    Spectrum free_flight[AirSegment::kNodes];
     for (int k = 0; k <= K; ++k) {
         AirSegment::Node &q = s.node[k];
         const Real x = k <= left ? Real(left - k) / left : Real(k - left) / (K - left);
@@ -329,10 +331,9 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
         const Spectrum T = q.T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
         free_flight[k] = node_sigma_t(m, q) * T;
         Spectrum tau_sun;
-        sunlit[k] = sun && m.tabulated_tau_to_top(p, sun->to_sun, tau_sun)
-                        ? T * exp(-tau_sun) * (s_r * p_rayleigh + s_m * p_mie)
-                        : Spectrum(0.0);
-        q.light = sun ? sun->irradiance * sunlit[k] : Spectrum(0.0);
+        q.light = sun && m.tabulated_tau_to_top(p, sun->to_sun, tau_sun)
+                      ? sun->irradiance * T * exp(-tau_sun) * (s_r * p_rayleigh + s_m * p_mie)
+                      : Spectrum(0.0);
     }
     s.n = K + 1;
     // The table's depth to the top from the start, along -d if d meets the ground ahead.
@@ -340,10 +341,21 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     const Real r = length(v), mu_a = dot(v, ray.d) / r;
     s.downward = mu_a < 0 && r * r * (mu_a * mu_a - 1) + m.planet_radius * m.planet_radius >= 0;
     if (!m.tabulated_tau_to_top(ray.at(a), s.downward ? -ray.d : ray.d, s.tau_start)) s.tau_start = Spectrum(kInfinity);
-    set_weights(s, free_flight, sunlit);
+    // Not across the planet's shadow: the sun's model runs linearly into it from the last
+    // lit node, where NEE finds nothing, so there it would overestimate by far.
+    bool lit = true, shadowed = true;
+    for (int k = 0; k < s.n; ++k) (is_black(s.node[k].light) ? lit : shadowed) = false;
+    s.models_light = lit || shadowed;
+    if (map && s.models_light) add_scattered_light(s, *map);
+    // Collisions follow the light (the sun's, or all of it with the map's): the weights are
+    // normalised per channel, so the sun's irradiance drops out. With the map's light, twice
+    // and more scattered light is gathered where it scatters (1.07x less time to equal
+    // error on the 2-degree sky than the sun's light alone).
+    set_weights(s, free_flight);
     return s;
 }
 
+namespace {
 // Rayleigh's share exactly (SkyMap::rayleigh_integral); Mie's lobe is narrow, its share
 // taken as the map's light arriving along the ray.
 void add_scattered_light(AirSegment &s, const SkyMap &map) {
@@ -364,17 +376,8 @@ void add_scattered_light(AirSegment &s, const SkyMap &map) {
         AirSegment::Node &q = s.node[k];
         q.light += q.T * (m.rayleigh_sigma_s * q.rayleigh * rayleigh[k] + m.mie_sigma_s * q.mie * mie[k]);
     }
-    // Collisions then follow all the scattered light, not the sun's alone: twice and more
-    // scattered light is gathered where the map's light scatters (measured on the 2-degree
-    // sky: 1.07x less time to equal error).
-    Spectrum free_flight[AirSegment::kNodes], lit[AirSegment::kNodes];
-    for (int k = 0; k < s.n; ++k) {
-        const AirSegment::Node &q = s.node[k];
-        free_flight[k] = node_sigma_t(m, q) * q.T;
-        lit[k] = q.light;
-    }
-    set_weights(s, free_flight, lit);
 }
+}  // namespace
 
 Spectrum AirSegment::optical_depth(Real t_at) const {
     if (n == 0 || t_at <= node[0].t) return Spectrum(0.0);

@@ -161,7 +161,7 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
         finish_level(level, m.horizon[l % NA]);
     });
     // Then twice scattered light: along each cell's ray, the first map's light scattered
-    // back by the air (add_scattered_light). Higher orders follow a geometric series in
+    // back by the air (air_segment's with the map). Higher orders follow a geometric series in
     // each level's ratio of the two (at most 0.8).
     std::vector<std::vector<Spectrum>> twice(m.levels.size());
     parallel_for(m.levels.size(), [&](size_t l) {
@@ -175,9 +175,7 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
                 const Vec3 d = cell_direction(frame, l, iz, ip);
                 Real g0, g1;
                 const bool ground = sphere_roots(air.center, air.planet_radius, p, d, g0, g1) && g0 > 0;
-                AirSegment seg = air_segment(air, Ray{p, d, 0, kInfinity}, ground ? g0 : kInfinity, nullptr);
-                add_scattered_light(seg, m);
-                const Spectrum L = seg.light_integral();
+                const Spectrum L = air_segment(air, Ray{p, d, 0, kInfinity}, ground ? g0 : kInfinity, nullptr, &m).light_integral();
                 twice[l][size_t(iz) * NP + ip] = L;
                 total += L * ((zenith_cosine(Real(iz + 1) / NZ, mu_h) - zenith_cosine(Real(iz) / NZ, mu_h)) * (2 * kPi / NP));
             }
