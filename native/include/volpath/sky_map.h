@@ -13,7 +13,7 @@
 // a set of altitudes and local sun elevations (a point 300 km away sees the sun 2.7
 // degrees higher). Directions are (azimuth from the sun, cosine to the zenith), the cosine
 // warped to crowd cells next to the horizon. The integrator draws directions from a mixture
-// of the phase function and the map (kSkyMapShare in the integrator).
+// of the phase function and the map (kSkyMapShareGuide/Model in the integrator).
 #pragma once
 
 #include <memory>

@@ -58,9 +58,11 @@ const AtmosphereMedium *guided_air(const Medium &m) {
 }
 
 // After scattering in guided air, a direction is drawn from the sky map (SkyMap) with this
-// probability, else from the phase function. Measured on the 2-degree sky: alone, the map
-// does best at 0.5; with its control variates (below) 0.1-0.3, where 0.5 costs 1.25x.
-constexpr Real kSkyMapShare = 0.25;
+// probability, else from the phase function. Measured on the 2-degree sky: where the map
+// only guides, 0.5 does best (0.25 and 0.75 take 1.06x and 1.3x the time to equal error);
+// where it is also a control variate (below), 0.05-0.1 (0.25: 1.1x, 0.5: 1.4x): its model
+// then does most of the work that the directions drawn from it would.
+constexpr Real kSkyMapShareGuide = 0.5, kSkyMapShareModel = 0.1;
 // Russian roulette at scattering events in the air from kSkyRouletteDepth on, where the sky
 // map predicts what the path brings back: survival kSkyRouletteSurvival, and the map's
 // prediction as a control variate (see scatter_in_medium). Measured on the 2-degree sky
@@ -80,13 +82,15 @@ struct SkyPoint {
     const SkyMap *map;
     SkyMap::Point at;
     PhaseFunction lobes;
-    SkyPoint(const SkyMap *map, const Vec3 &p, const PhaseFunction &phase) : map(map), at(map->at(p)) {
+    Real share;  // of directions drawn from the map
+    SkyPoint(const SkyMap *map, const Vec3 &p, const PhaseFunction &phase, bool models)
+        : map(map), at(map->at(p)), share(models ? kSkyMapShareModel : kSkyMapShareGuide) {
         const auto &air = std::get<RayleighMiePhase>(phase);
         lobes = RayleighMiePhase{Spectrum(average(air.rayleigh_fraction)), air.g};
     }
     // The density of d under the mixture of the map and the lobes.
     Spectrum pdf(const Vec3 &d_in, const Vec3 &d) const {
-        return phase_pdf(lobes, dot(d_in, d)) * (1 - kSkyMapShare) + Spectrum(kSkyMapShare * map->pdf(at, d));
+        return phase_pdf(lobes, dot(d_in, d)) * (1 - share) + Spectrum(share * map->pdf(at, d));
     }
 };
 
@@ -410,7 +414,8 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         ++depth;
         const PhaseFunction phase = medium_phase(m, p);
         const SkyMap *map = sky_map_of(m);
-        const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase)) : std::nullopt;
+        const bool models = map && map->models_light && scene.sun_shadowed_by_planets_alone && feat.nee;
+        const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
         if (feat.nee) {
             L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
             // Nothing left that the path could find?
@@ -422,16 +427,16 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
         } else {
             Real pdf_map;
-            ps.d_out = u_lobe < kSkyMapShare
-                           ? map->sample(sky->at, sampler.next_2d(), u_lobe / kSkyMapShare, pdf_map)
+            ps.d_out = u_lobe < sky->share
+                           ? map->sample(sky->at, sampler.next_2d(), u_lobe / sky->share, pdf_map)
                            : phase_sample(sky->lobes, ray.d, sampler.next_2d(),
-                                          (u_lobe - kSkyMapShare) / (1 - kSkyMapShare), channel).d_out;
+                                          (u_lobe - sky->share) / (1 - sky->share), channel).d_out;
             ps.value = phase_eval(phase, dot(ray.d, ps.d_out));
             ps.pdf = sky->pdf(ray.d, ps.d_out);
         }
         const Real pdf_c = ps.pdf[channel];
         if (!(pdf_c > 0)) return false;
-        const bool sky_model = sky && map->models_light && scene.sun_shadowed_by_planets_alone && feat.nee && !last_vertex();
+        const bool sky_model = models && !last_vertex();
         // The map's light scattered by Rayleigh's share as a control variate: its integral
         // over directions (exact, SkyMap::rayleigh_integral), less its value in the direction
         // drawn (the path then brings the light that truly arrives from there).
