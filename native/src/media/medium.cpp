@@ -142,7 +142,7 @@ void build_tau_table(AtmosphereMedium &m) {
     // 64 Simpson intervals per entry: more change nothing measurable (the bilinear
     // interpolation's error dominates), fewer show at ozone's kinks.
     constexpr int kSteps = 64;
-    m.tau_to_top.assign(size_t(NR) * NMU, Spectrum(0.0));
+    m.tau_to_top.assign(size_t(NR) * NMU * 3, 0.0f);
     const Real R = m.planet_radius;
     for (int i = 0; i < NR; ++i) {
         const Real H = std::sqrt(m.top_radius * m.top_radius - R * R), rho = H * i / (NR - 1);
@@ -150,7 +150,8 @@ void build_tau_table(AtmosphereMedium &m) {
         for (int j = 0; j < NMU; ++j) {
             const Real d = c.d_min + (c.d_max - c.d_min) * j / (NMU - 1);
             const Real mu = d == 0 ? 1.0 : std::clamp((H * H - c.rho * c.rho - d * d) / (2 * c.r * d), -1.0, 1.0);
-            m.tau_to_top[size_t(i) * NMU + j] = tau_along(m, c.r, mu, d, kSteps);
+            const Spectrum tau = tau_along(m, c.r, mu, d, kSteps);
+            for (int k = 0; k < 3; ++k) m.tau_to_top[(size_t(i) * NMU + j) * 3 + k] = float(tau[k]);
         }
     }
 }
@@ -232,8 +233,9 @@ bool AtmosphereMedium::tabulated_tau_to_top(const Vec3 &p, const Vec3 &d, Spectr
     const Real u = std::clamp(x_r, 0.0, 1.0) * (kTableR - 1), w = std::clamp(x_mu, 0.0, 1.0) * (kTableMu - 1);
     const int i = std::min(int(u), kTableR - 2), j = std::min(int(w), kTableMu - 2);
     const Real fu = u - i, fw = w - j;
-    const Spectrum *row0 = &tau_to_top[size_t(i) * kTableMu + j], *row1 = row0 + kTableMu;
-    tau = (row0[0] * (1 - fw) + row0[1] * fw) * (1 - fu) + (row1[0] * (1 - fw) + row1[1] * fw) * fu;
+    const float *row0 = &tau_to_top[(size_t(i) * kTableMu + j) * 3], *row1 = row0 + kTableMu * 3;
+    for (int k = 0; k < 3; ++k)
+        tau[k] = (row0[k] * (1 - fw) + row0[3 + k] * fw) * (1 - fu) + (row1[k] * (1 - fw) + row1[3 + k] * fw) * fu;
     return true;
 }
 
