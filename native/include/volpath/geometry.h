@@ -62,20 +62,26 @@ public:
     int add_sphere(const Sphere &sphere);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
-    Bounds bounds() const { return nodes_.empty() ? Bounds{} : nodes_[0].bounds; }
+    Bounds bounds() const;
 
 private:
     struct Primitive {
         int shape;
-        uint32_t index;
+        uint32_t index;  // the triangle in its mesh
     };
+    // Bounds as {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}: a ray picks each axis's near and far
+    // plane by its direction's signs, with no min/max per axis.
     struct Node {
-        Bounds bounds;
+        Real bounds[6];
         uint32_t first = 0;  // first primitive (leaf) or second child (inner)
         uint16_t count = 0;  // primitives in a leaf, 0 for an inner node
         uint8_t axis = 0;
     };
     std::vector<Primitive> prims_;
+    // Per primitive, in BVH order: a triangle's three vertices side by side (no index
+    // chain to follow during traversal); unused for spheres.
+    std::vector<std::array<Vec3, 3>> vertices_;
+    std::vector<uint8_t> is_sphere_;
     std::vector<Node> nodes_;
 
     Bounds primitive_bounds(const Primitive &p) const;

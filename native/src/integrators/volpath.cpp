@@ -327,10 +327,17 @@ namespace {
 // Which part of the camera ray's first medium segment a path estimates (see radiance()).
 enum class Branch { All, PassThrough, Collide };
 
+// The camera ray's first intersection, found once for both of its branches.
+struct FirstHit {
+    bool hit;
+    Intersection its;
+};
+
 // `gathered`: the sample's radiance from the camera's other branch (drawn from a stream of
-// its own), which Russian roulette's check counts with the path's L.
+// its own), which Russian roulette's check counts with the path's L. `first`: where `ray`
+// meets the scene, if known.
 Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config,
-                       Branch branch, const Spectrum &gathered = Spectrum(0.0)) {
+                       Branch branch, const Spectrum &gathered = Spectrum(0.0), const FirstHit *first = nullptr) {
     const Features feat = features_of(config);
     Spectrum L(0.0), beta(1.0), r_u(1.0), r_l(1.0);
     const int channel = std::min(int(sampler.next_1d() * 3), 2);
@@ -558,7 +565,13 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
 
     for (;;) {
         Intersection its;
-        const bool hit = scene.intersect(ray, its);
+        bool hit;
+        if (first) {
+            hit = first->hit, its = first->its;
+            first = nullptr;
+        } else {
+            hit = scene.intersect(ray, its);
+        }
         const Real t_end = hit ? its.t : ray.t_max;
 
         // Travel through the current medium, possibly scattering in it.
@@ -756,8 +769,10 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, con
     }
     if (!split) return radiance_path(scene, ray, medium, sampler, config, Branch::All);
     Sampler second = sampler.split();
-    const Spectrum through = radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough);
-    return through + radiance_path(scene, ray, medium, second, config, Branch::Collide, through);
+    FirstHit first;
+    first.hit = scene.intersect(ray, first.its);
+    const Spectrum through = radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough, Spectrum(0.0), &first);
+    return through + radiance_path(scene, ray, medium, second, config, Branch::Collide, through, &first);
 }
 
 }  // namespace volpath

@@ -80,6 +80,23 @@ void Geometry::build() {
     }
     nodes_.reserve(2 * prims_.size());
     build_recursive(bounds, centroids, 0, uint32_t(prims_.size()));
+    vertices_.assign(prims_.size(), {});
+    is_sphere_.assign(prims_.size(), 0);
+    for (size_t i = 0; i < prims_.size(); ++i) {
+        const ShapeGeometry &g = shapes[prims_[i].shape];
+        is_sphere_[i] = g.is_sphere;
+        if (g.is_sphere) continue;
+        const TriangleMesh &m = meshes[g.index];
+        for (int k = 0; k < 3; ++k) vertices_[i][k] = m.positions[m.triangles[prims_[i].index][k]];
+    }
+}
+
+Bounds Geometry::bounds() const {
+    if (nodes_.empty()) return {};
+    const Real *b = nodes_[0].bounds;
+    Bounds out;
+    out.lo = {b[0], b[1], b[2]}, out.hi = {b[3], b[4], b[5]};
+    return out;
 }
 
 // Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
@@ -92,7 +109,8 @@ uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3
         node_bounds.extend(bounds[i]);
         centroid_bounds.extend(centroids[i]);
     }
-    nodes_[node_index].bounds = node_bounds;
+    Real *nb = nodes_[node_index].bounds;
+    for (int a = 0; a < 3; ++a) nb[a] = node_bounds.lo[a], nb[3 + a] = node_bounds.hi[a];
     const uint32_t count = end - begin;
     auto make_leaf = [&] {
         nodes_[node_index].first = begin;
@@ -187,18 +205,17 @@ struct Geometry::ShearedRay {
 
 bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const ShearedRay &sr, Real t_max,
                                    Hit &hit) const {
-    const ShapeGeometry &s = shapes[prim.shape];
-    if (s.is_sphere) {
-        const Sphere &sp = spheres[s.index];
+    const size_t i = size_t(&prim - prims_.data());
+    if (is_sphere_[i]) {
+        const Sphere &sp = spheres[shapes[prim.shape].index];
         Real t0, t1;
         if (!sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1)) return false;
         const Real t = t0 > ray.t_min ? t0 : t1;
         if (!(t > ray.t_min && t < t_max)) return false;
         hit.t = t;
     } else {
-        const TriangleMesh &m = meshes[s.index];
-        const auto &tri = m.triangles[prim.index];
-        const Vec3 a = m.positions[tri[0]] - ray.o, b = m.positions[tri[1]] - ray.o, c = m.positions[tri[2]] - ray.o;
+        const std::array<Vec3, 3> &tri = vertices_[i];
+        const Vec3 a = tri[0] - ray.o, b = tri[1] - ray.o, c = tri[2] - ray.o;
         const Real ax = a[sr.kx] - sr.sx * a[sr.kz], ay = a[sr.ky] - sr.sy * a[sr.kz];
         const Real bx = b[sr.kx] - sr.sx * b[sr.kz], by = b[sr.ky] - sr.sy * b[sr.kz];
         const Real cx = c[sr.kx] - sr.sx * c[sr.kz], cy = c[sr.ky] - sr.sy * c[sr.kz];
@@ -211,7 +228,7 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const 
         hit.t = t;
         hit.b0 = u / det, hit.b1 = v / det, hit.b2 = w / det;
     }
-    hit.prim = uint32_t(&prim - prims_.data());
+    hit.prim = uint32_t(i);
     return true;
 }
 
@@ -247,6 +264,9 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     auto inv = [](Real d) { return 1.0 / (d == 0 ? 1e-300 : d); };
     const Vec3 inv_d{inv(ray.d.x), inv(ray.d.y), inv(ray.d.z)};
     const bool negative[3] = {inv_d.x < 0, inv_d.y < 0, inv_d.z < 0};
+    // Each axis's near and far plane in Node::bounds.
+    const int nx = negative[0] ? 3 : 0, ny = negative[1] ? 4 : 1, nz = negative[2] ? 5 : 2;
+    const int fx = 3 - nx, fy = 5 - ny, fz = 7 - nz;
     const ShearedRay sheared(ray.d);
     Hit closest{ray.t_max};
     bool hit = false;
@@ -255,11 +275,12 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     uint32_t current = 0;
     for (;;) {
         const Node &node = nodes_[current];
-        const Vec3 t0 = (node.bounds.lo - ray.o) * inv_d, t1 = (node.bounds.hi - ray.o) * inv_d;
-        const Vec3 t_in = min(t0, t1), t_out = max(t0, t1);
-        const Real t_near = std::max(std::max(t_in.x, t_in.y), std::max(t_in.z, ray.t_min));
+        const Real *b = node.bounds;
+        const Real t_near = std::max(std::max((b[nx] - ray.o.x) * inv_d.x, (b[ny] - ray.o.y) * inv_d.y),
+                                     std::max((b[nz] - ray.o.z) * inv_d.z, ray.t_min));
         // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
-        const Real t_far = std::min(std::min(t_out.x, t_out.y), std::min(t_out.z, closest.t)) * (1 + 4e-16);
+        const Real t_far = std::min(std::min((b[fx] - ray.o.x) * inv_d.x, (b[fy] - ray.o.y) * inv_d.y),
+                                    std::min((b[fz] - ray.o.z) * inv_d.z, closest.t)) * (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
                 for (uint32_t i = 0; i < node.count; ++i)
