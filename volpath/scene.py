@@ -747,13 +747,15 @@ class _Builder:
         if flight == "guided" and sun == "tracking":
             raise p.error("free_flight='guided' takes transmittances by quadrature: it needs "
                           "sun_transmittance 'table' or 'quadrature', not 'tracking'")
+        # The sky map (directions after scattering, control variates): off only to measure it.
+        sky_map = p.bool("sky_map", True)
         albedo = p.rgb("ground_albedo", preset["ground_albedo"])
         if np.any(albedo > 1):
             raise p.error("'ground_albedo' must be at most 1")
         n = self.native
         index = n.add_medium_atmosphere(tuple(center), R, R + H, tuple(rayleigh), h_r, tuple(mie_s),
                                         tuple(mie_t - mie_s), h_m, g,
-                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun, flight)
+                                        tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun, flight, sky_map)
         n.add_sphere(tuple(center), R + H, False, n.add_bsdf_null(), interior=index, exterior=-1,
                      medium_interface=True)
         if p.bool("ground", True):

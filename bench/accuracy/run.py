@@ -98,7 +98,8 @@ def scene_list(mitsuba, cycles):
         "sunrise sky", "Bruneton atmosphere, camera 2 m up, looking 60° away from the sun at 2° "
         "elevation (the sun's disc, a sub-pixel emitter, would dominate any error measure), "
         "multiple scattering", sky,
-        [("null_scattering (guided free flight, tabulated transmittances)", NULL, {}),
+        [("null_scattering (guided free flight, tabulated transmittances, sky map)", NULL, {}),
+         ("guided free flight without the sky map (no control variates)", NULL, {"skymap": "false"}),
          ("delta tracking, 4 majorant pieces", NULL, {"flight": "tracking"}),
          ("delta tracking, one majorant per ray", NULL, {"flight": "tracking", "pieces": 1}),
          ("delta tracking, 16 majorant pieces", NULL, {"flight": "tracking", "pieces": 16}),

@@ -299,8 +299,9 @@ PYBIND11_MODULE(_core, m) {
         .def("add_medium_atmosphere",
              [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
                 double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
-                int pieces, const std::string &sun_transmittance, const std::string &free_flight) {
+                int pieces, const std::string &sun_transmittance, const std::string &free_flight, bool sky_map) {
                  AtmosphereMedium a;
+                 a.use_sky_map = sky_map;
                  using S = AtmosphereMedium::SunTransmittance;
                  if (sun_transmittance == "table") a.sun_transmittance = S::Table;
                  else if (sun_transmittance == "quadrature") a.sun_transmittance = S::Quadrature;
@@ -323,7 +324,7 @@ PYBIND11_MODULE(_core, m) {
              py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
              py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
              py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4,
-             py::arg("sun_transmittance") = "table", py::arg("free_flight") = "guided")
+             py::arg("sun_transmittance") = "table", py::arg("free_flight") = "guided", py::arg("sky_map") = true)
         .def("add_sun",
              [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
                  if (!(angular_radius > 0 && angular_radius < 0.5))

@@ -98,6 +98,16 @@ def test_segment_light_integral_is_the_models_integral(with_map, elevation):
         assert np.allclose(integral, numeric, rtol=1e-4, atol=1e-12 * np.max(integral)), (o, d, integral, numeric)
 
 
+def test_sky_map_can_be_turned_off():
+    """sky_map="false" (for the accuracy study) builds no map: the air is guided as before."""
+    cam = S.camera(res=4, fov=40, origin="0, 2, 0", target="0, 2.3, -1", spp=4, extra='<float name="far_clip" value="1e9"/>')
+    scene = volpath.load_string(S.scene(cam, '<medium type="atmosphere" id="air"><boolean name="sky_map" value="false"/>'
+                                             '</medium>', '<emitter type="sun"><float name="elevation" value="5"/></emitter>'))
+    with pytest.raises(ValueError, match="no sky map"):
+        sky_map(scene, (0, 2, 0))
+    assert np.all(np.isfinite(volpath.render(scene)))
+
+
 def test_map_models_light_only_where_it_is_faithful():
     """The control variates run only where the map stands for the light well: from inside
     the air with the sun above the horizon; not in twilight nor from space."""

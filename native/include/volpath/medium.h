@@ -116,7 +116,9 @@ struct AtmosphereMedium {
     // of doubles keeps more of it in cache).
     std::vector<float> tau_to_top;
     // Where the scene's sun's scattered light comes from, for directions after scattering
-    // here (guided free flight only); set by Scene::build.
+    // here and the control variates (guided free flight only); set by Scene::build unless
+    // use_sky_map is off (the scene language's sky_map, for the accuracy study).
+    bool use_sky_map = true;
     std::shared_ptr<const SkyMap> sky_map;
 
     Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }

@@ -105,7 +105,7 @@ void Scene::build() {
         auto *air = std::get_if<AtmosphereMedium>(&medium);
         if (!air) continue;
         air->sky_map.reset();
-        if (!sun || air->free_flight != AtmosphereMedium::FreeFlight::Guided) continue;
+        if (!sun || !air->use_sky_map || air->free_flight != AtmosphereMedium::FreeFlight::Guided) continue;
         Spectrum albedo(0.0);
         for (int i = 0; i < int(shapes.size()); ++i) {
             const ShapeGeometry &g = geometry.shapes[i];
