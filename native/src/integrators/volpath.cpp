@@ -66,10 +66,15 @@ constexpr Real kSkyMapShareGuide = 0.5, kSkyMapShareModel = 0.1;
 // Russian roulette at scattering events in the air from kSkyRouletteDepth on, where the sky
 // map predicts what the path brings back: survival kSkyRouletteSurvival, and the map's
 // prediction as a control variate (see scatter_in_medium). Measured on the 2-degree sky
-// at equal error: 0.35 from depth 2 takes 0.8x the time of 0.5 and 0.6x that of 0.7 (the
-// walks are cut short, the prediction carries their rest).
-constexpr Real kSkyRouletteSurvival = 0.35;
+// at equal error: 0.55 from depth 2; 0.45 and 0.65 take 1.06x and 1.02x the time, 0.35
+// 1.2x (the walks are cut short, the prediction carries their rest).
+constexpr Real kSkyRouletteSurvival = 0.55;
 constexpr int kSkyRouletteDepth = 2;
+// Mie's share of the map's light scattered at an event has no closed-form integral (its lobe
+// is narrow, the map piecewise constant): kMieLobeSamples directions of the lobe estimate it,
+// without bias, from the map alone. Measured: 1 to 4 within 6 %, 2 best (1.46x less time to
+// equal error than without Mie's share).
+constexpr int kMieLobeSamples = 2;
 const SkyMap *sky_map_of(const Medium &m) {
     const AtmosphereMedium *air = guided_air(m);
     return air ? air->sky_map.get() : nullptr;
@@ -444,15 +449,29 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         const Real pdf_c = ps.pdf[channel];
         if (!(pdf_c > 0)) return false;
         const bool sky_model = models && !last_vertex();
-        // The map's light scattered by Rayleigh's share as a control variate: its integral
-        // over directions (exact, SkyMap::rayleigh_integral), less its value in the direction
-        // drawn (the path then brings the light that truly arrives from there).
+        // The map's light scattered here as a control variate: its integral over directions,
+        // less its value in the direction drawn (the path then brings the light that truly
+        // arrives from there). Rayleigh's share integrates exactly (SkyMap::rayleigh_integral);
+        // Mie's by an unbiased estimate from the map alone: directions of its lobe (drawn
+        // like Henyey-Greenstein's, stratified, from one 2D sample), independent of d_out.
         const Spectrum arriving = sky_model ? map->radiance(sky->at, ps.d_out) : Spectrum(0.0);
         if (sky_model) {
-            const Spectrum &rayleigh = std::get<RayleighMiePhase>(phase).rayleigh_fraction;
-            L += beta * rayleigh *
-                 (map->rayleigh_integral(sky->at, ray.d) - arriving * (rayleigh_eval(dot(ray.d, ps.d_out)) / pdf_c)) /
-                 average(r_u);
+            const auto &air = std::get<RayleighMiePhase>(phase);
+            const Spectrum &rayleigh = air.rayleigh_fraction, mie = Spectrum(1.0) - rayleigh;
+            const Vec2 u = sampler.next_2d();
+            const Frame forward(ray.d);
+            Spectrum mie_integral(0.0);
+            for (int k = 0; k < kMieLobeSamples; ++k) {
+                const Real mu = hg_sample_mu(air.g, (k + u.x) / kMieLobeSamples), sin_theta = safe_sqrt(1 - mu * mu);
+                const Real phi = 2 * kPi * std::fmod(u.y + k * 0.6180339887498949, 1.0);
+                const Vec3 w = forward.to_world({sin_theta * std::cos(phi), sin_theta * std::sin(phi), mu});
+                mie_integral += map->radiance(sky->at, w) * (cornette_shanks_eval(air.g, mu) / hg_eval(air.g, mu));
+            }
+            const Real mu = dot(ray.d, ps.d_out);
+            const Spectrum integral = rayleigh * map->rayleigh_integral(sky->at, ray.d) +
+                                      mie * mie_integral / Real(kMieLobeSamples);
+            const Spectrum value = (rayleigh * rayleigh_eval(mu) + mie * cornette_shanks_eval(air.g, mu)) * arriving;
+            L += beta * (integral - value / pdf_c) / average(r_u);
         }
         // Lobe mixtures make the direction's pdf differ per channel.
         beta *= ps.value / pdf_c;
