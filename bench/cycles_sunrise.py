@@ -259,9 +259,9 @@ Reading: the guided free flight with the sky map and its control variates (READM
 atmosphere") reaches 1 % of the mean in {guided[9][0]:.0f} s per frame against delta
 tracking's {tracking[9][0]:.0f} s ({tracking[9][0] / guided[9][0]:.1f}x faster); the issue's target, 60 s, is
 {'met' if guided[9][0] <= 60 else f'not met ({guided[9][0] / 60:.1f}x over)'}. Cycles' times are upper bounds: its 16-spp render already
-meets both targets, so the ratios against it are lower bounds. Most of the remaining noise is
-light that Mie's forward lobe scatters, which the control variates do not model (with Mie's
-g set to 0 the same sky converges twice as fast). Cycles looks its sky up in a table it
+meets both targets, so the ratios against it are lower bounds. What noise remains is the
+models' error (the map's cells and levels, Mie's share estimated from two directions) and
+the light the models leave out. Cycles looks its sky up in a table it
 precomputes from its own multiple-scattering model: no path crosses the air, its error is the
 pixel filter's alone, and no path tracer of the air reaches its time. The skies also differ
 in model (docs/sky_cycles_volpath.png: Cycles left, Volpath right at 64 spp, each at its own
