@@ -75,9 +75,6 @@ void cell_moments(Real a, Real b, Real c, Real d, Real out[6]) {
     out[3] = sin2 * cs, out[4] = mixed * (std::sin(d) - std::sin(c)), out[5] = mixed * (std::cos(c) - std::cos(d));
 }
 
-}  // namespace
-
-namespace {
 // The level's distribution and integrals from its cells' radiance.
 void finish_level(SkyMap::Level &level, Real mu_h) {
     std::vector<Real> f(size_t(NZ) * NP);
@@ -98,7 +95,6 @@ void finish_level(SkyMap::Level &level, Real mu_h) {
     }
     level.directions = Distribution2D(f, NP, NZ);
 }
-}  // namespace
 
 // Runs fn(0..n-1) on all cores; each index writes only its own results.
 template <typename Fn>
@@ -112,6 +108,7 @@ void parallel_for(size_t n, Fn &&fn) {
     worker();
     for (auto &t : pool) t.join();
 }
+}  // namespace
 
 std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const SunGuide &sun,
                                             const Spectrum &ground_albedo, const Vec3 &viewpoint) {
