@@ -75,7 +75,8 @@ def _info(args, parser):
     print(f"  settings  {scene.spp} spp, tracer {scene.tracer}, max_depth {scene.max_depth}, rr_depth {scene.rr_depth}")
     print(f"  shapes    {len(s['shapes'])}")
     for sh in s["shapes"]:
-        extra = f"{sh['triangles']} triangles" if "triangles" in sh else f"radius {sh['radius']:g}"
+        extra = (f"{sh['triangles']} triangles" if "triangles" in sh else
+                 "analytic box" if sh.get("box") else f"radius {sh['radius']:g}")
         print(f"    {sh['type']:<10} {extra}{', emitter' if sh['emitter'] else ''}")
     print(f"  media     {len(s['media'])}")
     for m in s["media"]:

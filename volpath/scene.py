@@ -862,6 +862,16 @@ class _Builder:
             bounds = np.array([center - radius, center + radius])
             self.summary["shapes"].append({"type": "sphere", "center": center.tolist(), "radius": radius,
                                            "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
+        elif p.type == "cube" and radiance is None and np.linalg.cond(to_world[:3, :3]) < 1e12:
+            # An analytic box (one primitive); emitting or flattened cubes stay meshes.
+            # Under a mirroring map the mesh's faces turn inward; the box's do too.
+            box_info = {k: v for k, v in common.items() if k != "radiance"}
+            mirrored = np.linalg.det(to_world[:3, :3]) < 0
+            self.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
+            corners = _transform_points(to_world, _cube()[0])
+            bounds = np.array([corners.min(axis=0), corners.max(axis=0)])
+            self.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type,
+                                           "loc": p.loc})
         else:
             normals = None
             if p.type == "rectangle":

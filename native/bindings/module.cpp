@@ -296,6 +296,14 @@ PYBIND11_MODULE(_core, m) {
              py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"),
              py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
              py::arg("radiance") = py::none())
+        .def("add_box",
+             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
+                int exterior, bool medium_interface) {
+                 return s.add_shape_box(Box{transform(to_world), transform(to_local), flip},
+                                        shape_info(bsdf, interior, exterior, medium_interface));
+             },
+             py::arg("to_world"), py::arg("to_local"), py::arg("flip_normals"), py::arg("bsdf"),
+             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false)
         .def("add_medium_atmosphere",
              [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
                 double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
@@ -481,22 +489,25 @@ PYBIND11_MODULE(_core, m) {
     m.def("air_phase_pdf", [](Array3 rayleigh_fraction, double g, int channel, double mu) {
         return phase_pdf(RayleighMiePhase{vec(rayleigh_fraction), g}, mu)[channel];
     });
-    // Nearest hit of each ray (rows of o and d): t (inf on a miss) and the shape index.
+    // Nearest hit of each ray (rows of o and d): t (inf on a miss), the shape index and the
+    // geometric normal.
     m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d) {
         if (!s.built) s.build();
         const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
         if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
-        py::array_t<double> t(os.size());
+        py::array_t<double> t(os.size()), n({py::ssize_t(os.size()), py::ssize_t(3)});
         py::array_t<int> shape(os.size());
         auto tt = t.mutable_unchecked<1>();
+        auto nn = n.mutable_unchecked<2>();
         auto ss = shape.mutable_unchecked<1>();
         for (size_t i = 0; i < os.size(); ++i) {
             Intersection its;
             const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its);
             tt(i) = hit ? its.t : kInfinity;
             ss(i) = hit ? its.shape : -1;
+            for (int k = 0; k < 3; ++k) nn(i, k) = hit ? its.n[k] : 0.0;
         }
-        return py::make_tuple(t, shape);
+        return py::make_tuple(t, shape, n);
     });
     m.def("sphere_roots", [](Array3 center, double radius, Array3 o, Array3 d) -> py::object {
         double t0, t1;

@@ -41,7 +41,7 @@ def test_shared_edges_are_watertight(tmp_path_factory, centre, radius, angles, t
     side = rng.choice([-1.0, 1.0], size=(16, 1))
     origins = target + lift * radius * (side * normal + 0.5 * rng.normal(size=(16, 3)))
     dirs = target - origins
-    t, shape = _core.intersect(scene.native, origins, dirs)
+    t, shape, _ = _core.intersect(scene.native, origins, dirs)
     expected = np.linalg.norm(dirs, axis=1)
     assert np.all(shape == 0), "a ray slipped between the two triangles"
     assert np.all(np.abs(t - expected) <= 1e-9 * (1 + np.abs(origins).max() + expected))
@@ -59,7 +59,49 @@ def test_spheres_far_from_the_origin(cx, cy, cz, r, dist, theta, phi):
     o = c + d * dist * r
     scene = volpath.load_string(S.scene(S.camera(res=2), f'<shape type="sphere"><point name="center" '
                                         f'value="{cx!r}, {cy!r}, {cz!r}"/><float name="radius" value="{r!r}"/></shape>'))
-    t, shape = _core.intersect(scene.native, o[None], -d[None])
+    t, shape, _ = _core.intersect(scene.native, o[None], -d[None])
     assert shape[0] == 0
     scale = np.abs(o).max() + r
     assert abs(t[0] - (dist - 1) * r) <= 1e-9 * scale
+
+
+def _matrix_text(m):
+    return f'<matrix value="{" ".join(repr(float(v)) for v in m.ravel())}"/>'
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), log_scale=st.floats(-3, 4), offset=st.floats(-1e4, 1e4),
+       aligned=st.booleans(), flip=st.booleans())
+def test_boxes_hit_like_their_twelve_triangles(seed, log_scale, offset, aligned, flip):
+    """A `cube` is an analytic box: from inside and outside, axis-aligned or under any
+    invertible affine map (rotation, shear, unequal scales), its hits and normals are those
+    of the same cube as a triangle mesh, to 1e-9 of the scene's scale."""
+    rng = np.random.default_rng(seed)
+    scale = 10.0 ** log_scale * rng.uniform(0.2, 1.0, 3)
+    lin = np.diag(scale) if aligned else rng.normal(size=(3, 3)) * 10.0 ** log_scale
+    if abs(np.linalg.det(lin)) < 1e-3 * np.abs(lin).max() ** 3:
+        return  # nearly flat: such cubes stay meshes
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = lin, offset * rng.normal(size=3)
+    from volpath.scene import _cube
+    corners, triangles = _cube()
+    positions = corners @ lin.T + m[:3, 3]
+    if flip:
+        triangles = triangles[:, ::-1]
+    flip_text = '<boolean name="flip_normals" value="true"/>' if flip else ""
+    box = volpath.load_string(S.scene(S.camera(res=2), f'<shape type="cube"><transform name="to_world">'
+                                      f'{_matrix_text(m)}</transform>{flip_text}</shape>'))
+    assert box.summary["shapes"][0].get("box")
+    mesh = volpath.load_dict({"type": "scene", "sensor": {"type": "perspective"},
+                              "cube": {"type": "mesh", "positions": positions, "indices": triangles.astype(np.int64)}})
+    centre, size = m[:3, 3], np.abs(lin).sum(axis=1)
+    inside = centre + (rng.uniform(-0.9, 0.9, (32, 3)) @ lin.T)
+    outside = centre + size * rng.uniform(1.5, 3.0, (32, 3)) * rng.choice([-1.0, 1.0], (32, 3))
+    origins = np.vstack([inside, outside])
+    dirs = np.vstack([rng.normal(size=(32, 3)), centre + (rng.uniform(-0.9, 0.9, (32, 3)) @ lin.T) - outside])
+    t_box, hit_box, n_box = _core.intersect(box.native, origins, dirs)
+    t_mesh, hit_mesh, n_mesh = _core.intersect(mesh.native, origins, dirs)
+    assert np.array_equal(hit_box, hit_mesh) and np.all(hit_box == 0)
+    tol = 1e-9 * (np.abs(origins).max() + size.max())
+    assert np.all(np.abs(t_box - t_mesh) <= tol)
+    assert np.all(np.abs(n_box - n_mesh) <= 1e-9)

@@ -54,6 +54,7 @@ struct Scene {
     int add_medium(const Medium &m);
     int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
+    int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
     int add_light(const Light &l);  // counts point_and_directional
     void build();
 

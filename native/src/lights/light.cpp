@@ -96,7 +96,7 @@ struct Sample {
         out.delta = false;
         Vec3 p, n;
         Real pdf_area;
-        if (sg.is_sphere) {
+        if (sg.is_sphere()) {
             const Sphere &s = geometry.spheres[sg.index];
             const Vec3 to_center = s.center - ref;
             const Real dc = length(to_center);
@@ -159,7 +159,7 @@ struct Pdf {
     }
     Real operator()(const AreaLight &l) const {
         const ShapeGeometry &sg = geometry.shapes[l.shape];
-        if (sg.is_sphere) {
+        if (sg.is_sphere()) {
             const Sphere &s = geometry.spheres[sg.index];
             const Real dc = length(s.center - ref);
             if (dc > s.radius * (1 + 1e-9)) {
@@ -178,7 +178,7 @@ struct Pdf {
 void prepare_light(Light &light, const Geometry &geometry) {
     if (auto *area = std::get_if<AreaLight>(&light)) {
         const ShapeGeometry &sg = geometry.shapes[area->shape];
-        if (sg.is_sphere) {
+        if (sg.is_sphere()) {
             const Sphere &s = geometry.spheres[sg.index];
             area->area = 4.0 * kPi * s.radius * s.radius;
             area->center = s.center;

@@ -34,23 +34,33 @@ bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d,
 
 int Geometry::add_mesh(TriangleMesh mesh) {
     meshes.push_back(std::move(mesh));
-    shapes.push_back({false, int(meshes.size()) - 1});
+    shapes.push_back({ShapeGeometry::Kind::Mesh, int(meshes.size()) - 1});
     return int(shapes.size()) - 1;
 }
 
 int Geometry::add_sphere(const Sphere &sphere) {
     spheres.push_back(sphere);
-    shapes.push_back({true, int(spheres.size()) - 1});
+    shapes.push_back({ShapeGeometry::Kind::Sphere, int(spheres.size()) - 1});
+    return int(shapes.size()) - 1;
+}
+
+int Geometry::add_box(const Box &box) {
+    boxes.push_back(box);
+    shapes.push_back({ShapeGeometry::Kind::Box, int(boxes.size()) - 1});
     return int(shapes.size()) - 1;
 }
 
 Bounds Geometry::primitive_bounds(const Primitive &p) const {
     Bounds b;
     const ShapeGeometry &s = shapes[p.shape];
-    if (s.is_sphere) {
+    if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
         b.extend(sp.center - Vec3(sp.radius));
         b.extend(sp.center + Vec3(sp.radius));
+    } else if (s.kind == ShapeGeometry::Kind::Box) {
+        for (int corner = 0; corner < 8; ++corner)
+            b.extend(boxes[s.index].to_world.point(
+                {corner & 1 ? 1.0 : -1.0, corner & 2 ? 1.0 : -1.0, corner & 4 ? 1.0 : -1.0}));
     } else {
         const TriangleMesh &m = meshes[s.index];
         for (uint32_t v : m.triangles[p.index]) b.extend(m.positions[v]);
@@ -62,7 +72,7 @@ void Geometry::build() {
     prims_.clear();
     nodes_.clear();
     for (int s = 0; s < int(shapes.size()); ++s) {
-        if (shapes[s].is_sphere) {
+        if (shapes[s].kind != ShapeGeometry::Kind::Mesh) {
             prims_.push_back({s, 0});
         } else {
             const auto &m = meshes[shapes[s].index];
@@ -81,11 +91,18 @@ void Geometry::build() {
     nodes_.reserve(2 * prims_.size());
     build_recursive(bounds, centroids, 0, uint32_t(prims_.size()));
     vertices_.assign(prims_.size(), {});
-    is_sphere_.assign(prims_.size(), 0);
+    kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
+    box_bounds_.assign(prims_.size(), Bounds{});
     for (size_t i = 0; i < prims_.size(); ++i) {
         const ShapeGeometry &g = shapes[prims_[i].shape];
-        is_sphere_[i] = g.is_sphere;
-        if (g.is_sphere) continue;
+        kind_[i] = g.kind;
+        if (g.kind == ShapeGeometry::Kind::Box) {
+            const Transform &m = boxes[g.index].to_world;
+            const bool aligned = m.m[0][1] == 0 && m.m[0][2] == 0 && m.m[1][0] == 0 && m.m[1][2] == 0 &&
+                                 m.m[2][0] == 0 && m.m[2][1] == 0;
+            if (aligned) box_bounds_[i] = primitive_bounds(prims_[i]);
+        }
+        if (g.kind != ShapeGeometry::Kind::Mesh) continue;
         const TriangleMesh &m = meshes[g.index];
         for (int k = 0; k < 3; ++k) vertices_[i][k] = m.positions[m.triangles[prims_[i].index][k]];
     }
@@ -187,26 +204,59 @@ uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3
     return node_index;
 }
 
-// Watertight ray-triangle test (Woop, Benthin & Wald 2013): vertices are moved into a
-// frame where the ray runs along +z from the origin, and the 2D edge functions U, V, W
-// decide the hit. Edges shared by two triangles are evaluated identically from both
-// sides, so no ray slips between them.
-struct Geometry::ShearedRay {
+namespace {
+// A zero component would give 0 * inf = NaN in a slab test; a tiny one does not.
+Vec3 safe_inverse(const Vec3 &d) {
+    auto inv = [](Real x) { return 1.0 / (x == 0 ? 1e-300 : x); };
+    return {inv(d.x), inv(d.y), inv(d.z)};
+}
+
+// The entry and exit distances of a ray (o, 1 / d) through the box [lo, hi].
+void slab(const Vec3 &lo, const Vec3 &hi, const Vec3 &o, const Vec3 &inv_d, Real &t_near, Real &t_far) {
+    t_near = -kInfinity, t_far = kInfinity;
+    for (int a = 0; a < 3; ++a) {
+        const Real t0 = (lo[a] - o[a]) * inv_d[a], t1 = (hi[a] - o[a]) * inv_d[a];
+        t_near = std::max(t_near, std::min(t0, t1));
+        t_far = std::min(t_far, std::max(t0, t1));
+    }
+}
+}  // namespace
+
+// Per-ray set-up: the direction's inverse for slab tests, and the shear of the watertight
+// ray-triangle test (Woop, Benthin & Wald 2013): vertices are moved into a frame where
+// the ray runs along +z from the origin, and the 2D edge functions U, V, W decide the
+// hit. Edges shared by two triangles are evaluated identically from both sides, so no
+// ray slips between them.
+struct Geometry::PreparedRay {
+    Vec3 inv_d;
     int kx, ky, kz;
     Real sx, sy, sz;
-    explicit ShearedRay(const Vec3 &d) {
+    explicit PreparedRay(const Vec3 &d) : inv_d(safe_inverse(d)) {
         const Vec3 a = abs(d);
         kz = a.x > a.y ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
         kx = (kz + 1) % 3, ky = (kx + 1) % 3;
         if (d[kz] < 0) std::swap(kx, ky);  // keep the winding
-        sx = d[kx] / d[kz], sy = d[ky] / d[kz], sz = 1.0 / d[kz];
+        sz = inv_d[kz], sx = d[kx] * sz, sy = d[ky] * sz;  // d[kz], the largest, is not 0
     }
 };
 
-bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const ShearedRay &sr, Real t_max,
+bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const PreparedRay &sr, Real t_max,
                                    Hit &hit) const {
     const size_t i = size_t(&prim - prims_.data());
-    if (is_sphere_[i]) {
+    if (kind_[i] == ShapeGeometry::Kind::Box) {
+        // Slab test in world space if the box is axis-aligned there, else in its own space,
+        // where t is the world ray's (the map is affine).
+        const Box &box = boxes[shapes[prim.shape].index];
+        Real t_near, t_far;
+        if (box_bounds_[i].valid())
+            slab(box_bounds_[i].lo, box_bounds_[i].hi, ray.o, sr.inv_d, t_near, t_far);
+        else
+            slab(Vec3(-1.0), Vec3(1.0), box.to_local.point(ray.o), safe_inverse(box.to_local.vector(ray.d)), t_near, t_far);
+        if (!(t_near <= t_far)) return false;
+        const Real t = t_near > ray.t_min ? t_near : t_far;
+        if (!(t > ray.t_min && t < t_max)) return false;
+        hit.t = t;
+    } else if (kind_[i] == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[shapes[prim.shape].index];
         Real t0, t1;
         if (!sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1)) return false;
@@ -236,7 +286,17 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
     const Primitive &prim = prims_[hit.prim];
     const ShapeGeometry &s = shapes[prim.shape];
     its.t = hit.t;
-    if (s.is_sphere) {
+    if (s.kind == ShapeGeometry::Kind::Box) {
+        // The face: the axis on which the hit point lies farthest out in the box's space.
+        // Its world normal is that row of the inverse map (the inverse transpose's column).
+        const Box &box = boxes[s.index];
+        its.p = ray.at(hit.t);
+        const Vec3 q = box.to_local.point(its.p);
+        int a = std::abs(q.x) > std::abs(q.y) ? 0 : 1;
+        if (std::abs(q.z) > std::abs(q[a])) a = 2;
+        const Vec3 n = normalize(Vec3(box.to_local.m[a][0], box.to_local.m[a][1], box.to_local.m[a][2]));
+        its.n = its.ns = (q[a] < 0) != box.flip_normals ? -n : n;
+    } else if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
         const Vec3 n = normalize(ray.at(hit.t) - sp.center);
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
@@ -260,14 +320,12 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
 
 bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     if (nodes_.empty()) return false;
-    // A zero component would give 0 * inf = NaN in the slab test; a tiny one does not.
-    auto inv = [](Real d) { return 1.0 / (d == 0 ? 1e-300 : d); };
-    const Vec3 inv_d{inv(ray.d.x), inv(ray.d.y), inv(ray.d.z)};
+    const PreparedRay prepared(ray.d);
+    const Vec3 &inv_d = prepared.inv_d;
     const bool negative[3] = {inv_d.x < 0, inv_d.y < 0, inv_d.z < 0};
     // Each axis's near and far plane in Node::bounds.
     const int nx = negative[0] ? 3 : 0, ny = negative[1] ? 4 : 1, nz = negative[2] ? 5 : 2;
     const int fx = 3 - nx, fy = 5 - ny, fz = 7 - nz;
-    const ShearedRay sheared(ray.d);
     Hit closest{ray.t_max};
     bool hit = false;
     uint32_t stack[64];
@@ -284,7 +342,7 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
         if (t_near <= t_far) {
             if (node.count > 0) {
                 for (uint32_t i = 0; i < node.count; ++i)
-                    hit |= intersect_primitive(prims_[node.first + i], ray, sheared, closest.t, closest);
+                    hit |= intersect_primitive(prims_[node.first + i], ray, prepared, closest.t, closest);
             } else {
                 // Near child first.
                 if (negative[node.axis]) {

@@ -73,6 +73,14 @@ int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectr
     return id;
 }
 
+int Scene::add_shape_box(const Box &b, const ShapeInfo &info) {
+    check_info(*this, info);
+    const int id = geometry.add_box(b);
+    shapes.push_back(info);
+    built = false;
+    return id;
+}
+
 void Scene::build() {
     geometry.build();
     for (Light &l : lights) prepare_light(l, geometry);
@@ -89,7 +97,7 @@ void Scene::build() {
     // or lies inside it, or if it is a null boundary, all around the same centre.
     auto shadows_no_air = [&](int shape) {
         const ShapeGeometry &g = geometry.shapes[shape];
-        if (!g.is_sphere) return false;
+        if (!g.is_sphere()) return false;
         const Sphere &s = geometry.spheres[g.index];
         for (const Medium &m : media) {
             const auto *air = std::get_if<AtmosphereMedium>(&m);
@@ -110,7 +118,7 @@ void Scene::build() {
         for (int i = 0; i < int(shapes.size()); ++i) {
             const ShapeGeometry &g = geometry.shapes[i];
             const auto *diffuse = std::get_if<DiffuseBSDF>(&bsdfs[shapes[i].bsdf].model);
-            if (g.is_sphere && diffuse && geometry.spheres[g.index].center == air->center &&
+            if (g.is_sphere() && diffuse && geometry.spheres[g.index].center == air->center &&
                 geometry.spheres[g.index].radius == air->planet_radius)
                 albedo = diffuse->reflectance;
         }
@@ -125,7 +133,7 @@ void Scene::build() {
 
 std::string Scene::describe() const {
     std::ostringstream s;
-    s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, "
+    s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, " << geometry.boxes.size() << " boxes, "
       << media.size() << " media, " << lights.size() << " lights";
     return s.str();
 }
