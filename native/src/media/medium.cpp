@@ -18,42 +18,42 @@ Spectrum VoxelGrid::lookup(const Vec3 &p) const {
         i1[a] = std::min(i0[a] + 1, res[a] - 1);
         w[a] = c[a] - i0[a];
     }
-    // Usually (343 times in 512) the eight voxels share one brick: one indirection for all.
+    // Where each of the eight voxels (corner k = x + 2y + 4z) keeps its channels; voxels of
+    // empty bricks read zeros. Usually (343 times in 512) all eight share one brick: one
+    // indirection for all.
+    static const float zeros[3] = {0, 0, 0};
     constexpr int L = kLog2Brick, M = kBrick - 1;
+    auto brick_of = [&](int x, int y, int z) {
+        return brick_index[(size_t(z >> L) * bricks[1] + (y >> L)) * bricks[0] + (x >> L)];
+    };
+    auto in_brick = [&](int32_t b, int x, int y, int z) {
+        return &data[(size_t(b) * kBrickVoxels + (((z & M) * kBrick + (y & M)) * kBrick + (x & M))) * channels];
+    };
+    const float *v[8];
     if ((i0[0] >> L) == (i1[0] >> L) && (i0[1] >> L) == (i1[1] >> L) && (i0[2] >> L) == (i1[2] >> L)) {
-        const int32_t b = brick_index[(size_t(i0[2] >> L) * bricks[1] + (i0[1] >> L)) * bricks[0] + (i0[0] >> L)];
+        const int32_t b = brick_of(i0[0], i0[1], i0[2]);
         if (b < 0) return Spectrum(0.0);
+        const float *base = in_brick(b, i0[0], i0[1], i0[2]);
         const int dx = (i1[0] - i0[0]) * channels, dy = (i1[1] - i0[1]) * kBrick * channels,
                   dz = (i1[2] - i0[2]) * kBrick * kBrick * channels;
-        const float *v = &data[(size_t(b) * kBrickVoxels + (((i0[2] & M) * kBrick + (i0[1] & M)) * kBrick + (i0[0] & M))) *
-                               channels];
-        Spectrum out(0.0);
-        // In double from the start: a difference of two floats rounded to float would let
-        // the result exceed both voxels (by ~1e-6 relative), and the majorants with it.
-        auto lerp = [](Real a, Real b, Real t) { return a + (b - a) * t; };
-        for (int c = 0; c < channels; ++c) {
-            const float *q = v + c;
-            const Real x00 = lerp(q[0], q[dx], w[0]), x10 = lerp(q[dy], q[dy + dx], w[0]);
-            const Real x01 = lerp(q[dz], q[dz + dx], w[0]), x11 = lerp(q[dz + dy], q[dz + dy + dx], w[0]);
-            out[c] = lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2]);
+        for (int k = 0; k < 8; ++k) v[k] = base + (k & 1 ? dx : 0) + (k & 2 ? dy : 0) + (k & 4 ? dz : 0);
+    } else {
+        for (int k = 0; k < 8; ++k) {
+            const int x = k & 1 ? i1[0] : i0[0], y = k & 2 ? i1[1] : i0[1], z = k & 4 ? i1[2] : i0[2];
+            const int32_t b = brick_of(x, y, z);
+            v[k] = b < 0 ? zeros : in_brick(b, x, y, z);
         }
-        return channels == 1 ? Spectrum(out[0]) : out;
     }
+    // In double from the start: a difference of two floats rounded to float would let the
+    // result exceed both voxels (by ~1e-6 relative), and the majorants with it.
+    auto lerp = [](Real a, Real b, Real t) { return a + (b - a) * t; };
     Spectrum out(0.0);
-    for (int corner = 0; corner < 8; ++corner) {
-        const int x = (corner & 1) ? i1[0] : i0[0];
-        const int y = (corner & 2) ? i1[1] : i0[1];
-        const int z = (corner & 4) ? i1[2] : i0[2];
-        const Real weight = ((corner & 1) ? w[0] : 1 - w[0]) * ((corner & 2) ? w[1] : 1 - w[1]) *
-                            ((corner & 4) ? w[2] : 1 - w[2]);
-        if (weight == 0) continue;
-        if (channels == 1) {
-            out += Spectrum(voxel(x, y, z, 0) * weight);
-        } else {
-            out += Spectrum(voxel(x, y, z, 0), voxel(x, y, z, 1), voxel(x, y, z, 2)) * weight;
-        }
+    for (int c = 0; c < channels; ++c) {
+        const Real x00 = lerp(v[0][c], v[1][c], w[0]), x10 = lerp(v[2][c], v[3][c], w[0]);
+        const Real x01 = lerp(v[4][c], v[5][c], w[0]), x11 = lerp(v[6][c], v[7][c], w[0]);
+        out[c] = lerp(lerp(x00, x10, w[1]), lerp(x01, x11, w[1]), w[2]);
     }
-    return out;
+    return channels == 1 ? Spectrum(out[0]) : out;
 }
 
 VoxelGrid sparse_grid(const float *dense, const int res[3], int channels) {
@@ -186,15 +186,15 @@ struct Phase {
     }
 };
 
-// Clips a ray given in a grid's space (o, d; its parameter t stays the world distance)
-// to the grid's unit cube by the slab test.
-bool clip_to_unit_cube(const Vec3 &o, const Vec3 &d, Real &t0, Real &t1) {
+// Clips a ray given in a grid's space (o, d and 1 / d; its parameter t stays the world
+// distance) to the grid's unit cube by the slab test.
+bool clip_to_unit_cube(const Vec3 &o, const Vec3 &d, const Vec3 &inv_d, Real &t0, Real &t1) {
     for (int a = 0; a < 3; ++a) {
         if (d[a] == 0) {
             if (o[a] < 0 || o[a] > 1) return false;
             continue;
         }
-        Real ta = (0 - o[a]) / d[a], tb = (1 - o[a]) / d[a];
+        Real ta = -o[a] * inv_d[a], tb = (1 - o[a]) * inv_d[a];
         if (ta > tb) std::swap(ta, tb);
         t0 = std::max(t0, ta), t1 = std::min(t1, tb);
     }
@@ -564,7 +564,8 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
         // ray's parameter is still the world distance.
         const Transform &to_grid = g->density.world_to_grid;
         const Vec3 o = to_grid.point(ray.o), d = to_grid.vector(ray.d);
-        if (!clip_to_unit_cube(o, d, t_, t_end_)) return;
+        const Vec3 inv_d(1 / d.x, 1 / d.y, 1 / d.z);  // used only where d[a] != 0
+        if (!clip_to_unit_cube(o, d, inv_d, t_, t_end_)) return;
         grid_ = g;
         const int res = g->majorants.res;
         const Vec3 p0 = o + d * t_;
@@ -576,8 +577,8 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
             }
             step_[a] = d[a] > 0 ? 1 : -1;
             const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) / res;
-            t_next_[a] = t_ + (boundary - p0[a]) / d[a];
-            t_delta_[a] = 1.0 / (res * std::abs(d[a]));
+            t_next_[a] = t_ + (boundary - p0[a]) * inv_d[a];
+            t_delta_[a] = std::abs(inv_d[a]) / res;
         }
     } else if (const auto *air = std::get_if<AtmosphereMedium>(&m)) {
         // Clipped to the top of the atmosphere and cut into equal pieces.
