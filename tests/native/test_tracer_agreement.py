@@ -40,6 +40,18 @@ def test_grey_homogeneous_scene_agrees(pair):
     assert compare(scene, *pair) < Z_MAX
 
 
+def test_shadow_ray_roulette_agrees():
+    """Every shadow ray toward the light leaves an absorbing slab (transmittance e^-4)
+    below kShadowRouletteT and goes on by Russian roulette; phase sampling alone
+    (multiple) must find the same light through the slab."""
+    slab = """<shape type="cube"><transform name="to_world"><scale x="2" y="0.1" z="2"/><translate y="1.5"/></transform>
+        <bsdf type="null"/><ref name="interior" id="ink"/></shape>"""
+    xml = S.scene(S.camera(res=16, spp=256), S.homogeneous("m", "0.5", "0.9"), S.homogeneous("ink", "20", "0"),
+                  S.medium_sphere("m"), slab, S.area_light_above(y=2.5, size=1.5, radiance="60, 60, 60"))
+    scene = volpath.load_string(xml)
+    assert compare(scene, "multiple", "nee_mis") < Z_MAX
+
+
 def test_chromatic_homogeneous_agrees_with_grid_of_same_density(tmp_path):
     """Null scattering through a constant grid equals closed-form tracking of the same
     homogeneous medium: tests delta tracking, ratio tracking and the spectral MIS."""

@@ -29,6 +29,13 @@ constexpr int kMaxNullCrossings = 256;
 // cloud, neutral on the others.
 constexpr Real kMaxSurvival = 0.99;
 
+// A shadow ray whose transmittance has fallen below kShadowRouletteT at a boundary goes on
+// with probability T / kShadowRouletteT (weighted up to match): from deep inside a dense
+// medium, what the rest of the ray finds barely counts. Measured on the dense sphere (c)
+// at equal error: 0.05 and 0.1 take 0.93x the time of no roulette, 0.02 0.95x, 0.2 0.96x,
+// 0.5 1.05x; the thinner media (d), (e) unchanged.
+constexpr Real kShadowRouletteT = 0.05;
+
 // MIS between strategies whose channel-averaged densities are in the ratio a : b : c, with
 // the power heuristic. Returns w / a, what multiplies beta * L.
 Real mis_over_a(Real a, Real b, Real c = 0) { return a / (a * a + b * b + c * c); }
@@ -294,6 +301,11 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         current = next;
         remaining -= its.t;
         ray = spawn_ray(its.p, its.n, ray.d, remaining);
+        // Russian roulette before tracing on, where the transmittance so far is small.
+        if (const Real T_max = max_component(T_ray); T_max < kShadowRouletteT) [[unlikely]] {
+            if (!(sampler.next_1d() * kShadowRouletteT < T_max)) return Spectrum(0.0);
+            T_ray *= kShadowRouletteT / T_max;
+        }
     }
 
     // Rays that leave guided air for nothing but suns never get there by phase sampling.
