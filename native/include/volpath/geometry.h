@@ -26,8 +26,8 @@ struct Sphere {
 };
 
 // The cube [-1, 1]^3 under an invertible affine map (the scene language's `cube`, the usual
-// container of a medium): one primitive, intersected by the slab test in its own space,
-// where twelve triangles cost a ray 2-3x as much to trace.
+// container of a medium): one primitive, intersected by the slab test (in world space when
+// the box is axis-aligned, else in its own), where twelve triangles cost a ray 2-3x as much.
 struct Box {
     Transform to_world, to_local;
     bool flip_normals = false;
@@ -54,7 +54,7 @@ struct Intersection {
     uint32_t prim = 0;
 };
 
-// One entry per scene shape: either a mesh or a sphere.
+// One entry per scene shape: a mesh, a sphere or a box.
 struct ShapeGeometry {
     enum class Kind : uint8_t { Mesh, Sphere, Box } kind = Kind::Mesh;
     int index = 0;  // into Geometry::meshes, spheres or boxes
