@@ -93,7 +93,10 @@ private:
     // chain to follow during traversal); unused for spheres and boxes.
     std::vector<std::array<Vec3, 3>> vertices_;
     std::vector<ShapeGeometry::Kind> kind_;
-    std::vector<Bounds> box_bounds_;  // per primitive: a box's, where it is axis-aligned
+    // Per primitive, for boxes: the box's bounds where it is axis-aligned (else invalid), and
+    // its +x, +y, +z faces' world normals.
+    std::vector<Bounds> box_bounds_;
+    std::vector<std::array<Vec3, 3>> box_normals_;
     std::vector<Node> nodes_;
 
     Bounds primitive_bounds(const Primitive &p) const;

@@ -568,6 +568,7 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
         if (!clip_to_unit_cube(o, d, inv_d, t_, t_end_)) return;
         grid_ = g;
         const int res = g->majorants.res;
+        const Real inv_res = 1.0 / res;
         const Vec3 p0 = o + d * t_;
         for (int a = 0; a < 3; ++a) {
             cell_[a] = std::clamp(int(p0[a] * res), 0, res - 1);
@@ -576,9 +577,9 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
                 continue;
             }
             step_[a] = d[a] > 0 ? 1 : -1;
-            const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) / res;
+            const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) * inv_res;
             t_next_[a] = t_ + (boundary - p0[a]) * inv_d[a];
-            t_delta_[a] = std::abs(inv_d[a]) / res;
+            t_delta_[a] = std::abs(inv_d[a]) * inv_res;
         }
     } else if (const auto *air = std::get_if<AtmosphereMedium>(&m)) {
         // Clipped to the top of the atmosphere and cut into equal pieces.

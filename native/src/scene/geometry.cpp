@@ -93,6 +93,7 @@ void Geometry::build() {
     vertices_.assign(prims_.size(), {});
     kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
     box_bounds_.assign(prims_.size(), Bounds{});
+    box_normals_.assign(prims_.size(), {});
     for (size_t i = 0; i < prims_.size(); ++i) {
         const ShapeGeometry &g = shapes[prims_[i].shape];
         kind_[i] = g.kind;
@@ -101,6 +102,10 @@ void Geometry::build() {
             const bool aligned = m.m[0][1] == 0 && m.m[0][2] == 0 && m.m[1][0] == 0 && m.m[1][2] == 0 &&
                                  m.m[2][0] == 0 && m.m[2][1] == 0;
             if (aligned) box_bounds_[i] = primitive_bounds(prims_[i]);
+            // Each +axis face's world normal: that row of the inverse map (the inverse
+            // transpose's column).
+            const Transform &inv = boxes[g.index].to_local;
+            for (int a = 0; a < 3; ++a) box_normals_[i][a] = normalize(Vec3(inv.m[a][0], inv.m[a][1], inv.m[a][2]));
         }
         if (g.kind != ShapeGeometry::Kind::Mesh) continue;
         const TriangleMesh &m = meshes[g.index];
@@ -288,13 +293,12 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
     its.t = hit.t;
     if (s.kind == ShapeGeometry::Kind::Box) {
         // The face: the axis on which the hit point lies farthest out in the box's space.
-        // Its world normal is that row of the inverse map (the inverse transpose's column).
         const Box &box = boxes[s.index];
         its.p = ray.at(hit.t);
         const Vec3 q = box.to_local.point(its.p);
         int a = std::abs(q.x) > std::abs(q.y) ? 0 : 1;
         if (std::abs(q.z) > std::abs(q[a])) a = 2;
-        const Vec3 n = normalize(Vec3(box.to_local.m[a][0], box.to_local.m[a][1], box.to_local.m[a][2]));
+        const Vec3 &n = box_normals_[hit.prim][a];
         its.n = its.ns = (q[a] < 0) != box.flip_normals ? -n : n;
     } else if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
