@@ -25,14 +25,6 @@ struct Sphere {
     bool flip_normals = false;
 };
 
-// The cube [-1, 1]^3 under an invertible affine map (the scene language's `cube`, the usual
-// container of a medium): one primitive, intersected by the slab test (in world space when
-// the box is axis-aligned, else in its own), where twelve triangles cost a ray 2-3x as much.
-struct Box {
-    Transform to_world, to_local;
-    bool flip_normals = false;
-};
-
 struct Bounds {
     Vec3 lo{kInfinity}, hi{-kInfinity};
     void extend(const Vec3 &p) { lo = min(lo, p), hi = max(hi, p); }
@@ -43,6 +35,18 @@ struct Bounds {
         return 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x);
     }
     bool valid() const { return lo.x <= hi.x; }
+};
+
+// The cube [-1, 1]^3 under an invertible affine map (the scene language's `cube`, the usual
+// container of a medium): one primitive, intersected by the slab test (in world space when
+// the box is axis-aligned, else in its own), where twelve triangles cost a ray 2-3x as much.
+struct Box {
+    Transform to_world, to_local;
+    bool flip_normals = false;
+    // Set by Geometry::add_box: the box itself where it is axis-aligned in world space
+    // (else invalid), and its +x, +y, +z faces' world normals.
+    Bounds aligned_bounds;
+    std::array<Vec3, 3> normals;
 };
 
 struct Intersection {
@@ -93,10 +97,6 @@ private:
     // chain to follow during traversal); unused for spheres and boxes.
     std::vector<std::array<Vec3, 3>> vertices_;
     std::vector<ShapeGeometry::Kind> kind_;
-    // Per primitive, for boxes: the box's bounds where it is axis-aligned (else invalid), and
-    // its +x, +y, +z faces' world normals.
-    std::vector<Bounds> box_bounds_;
-    std::vector<std::array<Vec3, 3>> box_normals_;
     std::vector<Node> nodes_;
 
     Bounds primitive_bounds(const Primitive &p) const;

@@ -32,6 +32,16 @@ bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d,
     return true;
 }
 
+namespace {
+// The world bounds of a box: its eight corners'.
+Bounds corner_bounds(const Box &box) {
+    Bounds b;
+    for (int corner = 0; corner < 8; ++corner)
+        b.extend(box.to_world.point({corner & 1 ? 1.0 : -1.0, corner & 2 ? 1.0 : -1.0, corner & 4 ? 1.0 : -1.0}));
+    return b;
+}
+}  // namespace
+
 int Geometry::add_mesh(TriangleMesh mesh) {
     meshes.push_back(std::move(mesh));
     shapes.push_back({ShapeGeometry::Kind::Mesh, int(meshes.size()) - 1});
@@ -46,6 +56,13 @@ int Geometry::add_sphere(const Sphere &sphere) {
 
 int Geometry::add_box(const Box &box) {
     boxes.push_back(box);
+    Box &b = boxes.back();
+    const Transform &m = b.to_world, &inv = b.to_local;
+    b.aligned_bounds = Bounds{};
+    if (m.m[0][1] == 0 && m.m[0][2] == 0 && m.m[1][0] == 0 && m.m[1][2] == 0 && m.m[2][0] == 0 && m.m[2][1] == 0)
+        b.aligned_bounds = corner_bounds(b);
+    // A face's world normal is that row of the inverse map (the inverse transpose's column).
+    for (int a = 0; a < 3; ++a) b.normals[a] = normalize(Vec3(inv.m[a][0], inv.m[a][1], inv.m[a][2]));
     shapes.push_back({ShapeGeometry::Kind::Box, int(boxes.size()) - 1});
     return int(shapes.size()) - 1;
 }
@@ -58,9 +75,7 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
         b.extend(sp.center - Vec3(sp.radius));
         b.extend(sp.center + Vec3(sp.radius));
     } else if (s.kind == ShapeGeometry::Kind::Box) {
-        for (int corner = 0; corner < 8; ++corner)
-            b.extend(boxes[s.index].to_world.point(
-                {corner & 1 ? 1.0 : -1.0, corner & 2 ? 1.0 : -1.0, corner & 4 ? 1.0 : -1.0}));
+        b = corner_bounds(boxes[s.index]);
     } else {
         const TriangleMesh &m = meshes[s.index];
         for (uint32_t v : m.triangles[p.index]) b.extend(m.positions[v]);
@@ -92,21 +107,9 @@ void Geometry::build() {
     build_recursive(bounds, centroids, 0, uint32_t(prims_.size()));
     vertices_.assign(prims_.size(), {});
     kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
-    box_bounds_.assign(prims_.size(), Bounds{});
-    box_normals_.assign(prims_.size(), {});
     for (size_t i = 0; i < prims_.size(); ++i) {
         const ShapeGeometry &g = shapes[prims_[i].shape];
         kind_[i] = g.kind;
-        if (g.kind == ShapeGeometry::Kind::Box) {
-            const Transform &m = boxes[g.index].to_world;
-            const bool aligned = m.m[0][1] == 0 && m.m[0][2] == 0 && m.m[1][0] == 0 && m.m[1][2] == 0 &&
-                                 m.m[2][0] == 0 && m.m[2][1] == 0;
-            if (aligned) box_bounds_[i] = primitive_bounds(prims_[i]);
-            // Each +axis face's world normal: that row of the inverse map (the inverse
-            // transpose's column).
-            const Transform &inv = boxes[g.index].to_local;
-            for (int a = 0; a < 3; ++a) box_normals_[i][a] = normalize(Vec3(inv.m[a][0], inv.m[a][1], inv.m[a][2]));
-        }
         if (g.kind != ShapeGeometry::Kind::Mesh) continue;
         const TriangleMesh &m = meshes[g.index];
         for (int k = 0; k < 3; ++k) vertices_[i][k] = m.positions[m.triangles[prims_[i].index][k]];
@@ -253,8 +256,8 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const 
         // where t is the world ray's (the map is affine).
         const Box &box = boxes[shapes[prim.shape].index];
         Real t_near, t_far;
-        if (box_bounds_[i].valid())
-            slab(box_bounds_[i].lo, box_bounds_[i].hi, ray.o, sr.inv_d, t_near, t_far);
+        if (box.aligned_bounds.valid())
+            slab(box.aligned_bounds.lo, box.aligned_bounds.hi, ray.o, sr.inv_d, t_near, t_far);
         else
             slab(Vec3(-1.0), Vec3(1.0), box.to_local.point(ray.o), safe_inverse(box.to_local.vector(ray.d)), t_near, t_far);
         if (!(t_near <= t_far)) return false;
@@ -298,7 +301,7 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         const Vec3 q = box.to_local.point(its.p);
         int a = std::abs(q.x) > std::abs(q.y) ? 0 : 1;
         if (std::abs(q.z) > std::abs(q[a])) a = 2;
-        const Vec3 &n = box_normals_[hit.prim][a];
+        const Vec3 &n = box.normals[a];
         its.n = its.ns = (q[a] < 0) != box.flip_normals ? -n : n;
     } else if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
