@@ -490,11 +490,12 @@ PYBIND11_MODULE(_core, m) {
         return phase_pdf(RayleighMiePhase{vec(rayleigh_fraction), g}, mu)[channel];
     });
     // Nearest hit of each ray (rows of o and d): t (inf on a miss), the shape index and the
-    // geometric normal.
-    m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d) {
+    // geometric normal; `medium`: the one the rays travel in, as the tracers pass it.
+    m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d, int medium) {
         if (!s.built) s.build();
         const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
         if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
+        if (medium < -1 || medium >= int(s.media.size())) throw std::out_of_range("invalid medium");
         py::array_t<double> t(os.size()), n({py::ssize_t(os.size()), py::ssize_t(3)});
         py::array_t<int> shape(os.size());
         auto tt = t.mutable_unchecked<1>();
@@ -502,12 +503,17 @@ PYBIND11_MODULE(_core, m) {
         auto ss = shape.mutable_unchecked<1>();
         for (size_t i = 0; i < os.size(); ++i) {
             Intersection its;
-            const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its);
+            const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its, medium);
             tt(i) = hit ? its.t : kInfinity;
             ss(i) = hit ? its.shape : -1;
             for (int k = 0; k < 3; ++k) nn(i, k) = hit ? its.n[k] : 0.0;
         }
         return py::make_tuple(t, shape, n);
+    }, py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = -1);
+    // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
+    m.def("medium_containers", [](Scene &s) {
+        if (!s.built) s.build();
+        return s.medium_container;
     });
     m.def("sphere_roots", [](Array3 center, double radius, Array3 o, Array3 d) -> py::object {
         double t0, t1;

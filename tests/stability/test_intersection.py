@@ -105,3 +105,46 @@ def test_boxes_hit_like_their_twelve_triangles(seed, log_scale, offset, aligned,
     tol = 1e-9 * (np.abs(origins).max() + size.max())
     assert np.all(np.abs(t_box - t_mesh) <= tol)
     assert np.all(np.abs(n_box - n_mesh) <= 1e-9)
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), box=st.booleans(), inner=st.integers(0, 3))
+def test_rays_inside_an_empty_container_hit_it_first(seed, box, inner):
+    """A medium held by a sphere or box with nothing inside it is crossed with no BVH
+    traversal (Scene::medium_container): rays travelling in that medium, from inside and
+    from outside the container, hit what the full traversal hits. Shapes placed inside or
+    through the container (a sphere, a quad, a second box) take the shortcut away."""
+    rng = np.random.default_rng(seed)
+    lin = np.diag(rng.uniform(0.5, 2.0, 3)) @ np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = lin, rng.uniform(-1, 1, 3)
+    medium = S.homogeneous("fog", 1.0, 0.5)
+    if box:
+        container = (f'<shape type="cube"><transform name="to_world">{_matrix_text(m)}</transform>'
+                     '<bsdf type="null"/><ref name="interior" id="fog"/></shape>')
+    else:
+        c = m[:3, 3]
+        container = (f'<shape type="sphere"><point name="center" value="{c[0]!r}, {c[1]!r}, {c[2]!r}"/>'
+                     '<float name="radius" value="1.5"/><bsdf type="null"/><ref name="interior" id="fog"/></shape>')
+    # Other shapes: far outside, or (for inner > 0) one reaching into the container.
+    others = ['<shape type="sphere"><point name="center" value="0, 0, 9"/><float name="radius" value="1"/></shape>']
+    inside = m[:3, 3] + lin @ rng.uniform(-0.3, 0.3, 3)
+    if inner == 1:
+        others.append(f'<shape type="sphere"><point name="center" value="{inside[0]!r}, {inside[1]!r}, {inside[2]!r}"/>'
+                      '<float name="radius" value="0.2"/></shape>')
+    elif inner == 2:
+        q = np.eye(4)
+        q[:3, :3], q[:3, 3] = rng.normal(size=(3, 3)) * 0.5, inside
+        others.append(f'<shape type="rectangle"><transform name="to_world">{_matrix_text(q)}</transform></shape>')
+    elif inner == 3:
+        q = np.eye(4)
+        q[:3, :3], q[:3, 3] = np.diag(rng.uniform(0.1, 0.3, 3)), inside
+        others.append(f'<shape type="cube"><transform name="to_world">{_matrix_text(q)}</transform></shape>')
+    native = volpath.load_string(S.scene(S.camera(res=2), medium, container, *others)).native
+    assert (_core.medium_containers(native)[0] == 0) == (inner == 0)
+    origins = np.vstack([m[:3, 3] + rng.uniform(-0.7, 0.7, (48, 3)) @ lin.T, rng.uniform(-6, 6, (16, 3))])
+    dirs = rng.normal(size=(64, 3))
+    t_fast, shape_fast, n_fast = _core.intersect(native, origins, dirs, 0)
+    t, shape, n = _core.intersect(native, origins, dirs)
+    assert np.array_equal(shape_fast, shape)
+    assert np.array_equal(t_fast, t) and np.array_equal(n_fast, n)

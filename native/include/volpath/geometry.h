@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <vector>
 
 #include "math.h"
@@ -77,6 +78,12 @@ public:
     int add_box(const Box &box);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
+    // Whether no other primitive reaches into the shape's interior (a sphere or box; set by
+    // build()): a ray from inside it then hits it first, found with no traversal.
+    bool empty_inside(int shape) const { return solid_prim_[size_t(shape)] != kNoPrim; }
+    // For such a shape: the ray's hit if its origin is inside (the exit, or none before
+    // t_max), else nullopt (trace it through the BVH).
+    std::optional<bool> intersect_from_inside(int shape, const Ray &ray, Intersection &its) const;
     Bounds bounds() const;
 
 private:
@@ -98,6 +105,9 @@ private:
     std::vector<std::array<Vec3, 3>> vertices_;
     std::vector<ShapeGeometry::Kind> kind_;
     std::vector<Node> nodes_;
+    // Per shape: its primitive (into prims_) if it is a sphere or box empty inside, else kNoPrim.
+    static constexpr uint32_t kNoPrim = ~0u;
+    std::vector<uint32_t> solid_prim_;
 
     Bounds primitive_bounds(const Primitive &p) const;
     uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
@@ -112,6 +122,8 @@ private:
     };
     bool intersect_primitive(const Primitive &p, const Ray &ray, const PreparedRay &prepared, Real t_max,
                              Hit &hit) const;
+    // A sphere's or box's entry and exit distances (t0 <= t1) along the whole line.
+    bool solid_roots(uint32_t prim, const Ray &ray, const Vec3 &inv_d, Real &t0, Real &t1) const;
     void finish(const Hit &hit, const Ray &ray, Intersection &its) const;
 };
 

@@ -62,6 +62,18 @@ struct Scene {
     // among all lights.
     Real light_select_pdf(int light, bool mis) const;
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
+    // The same for a ray travelling in `medium` (-1: none): from inside the medium's
+    // container, with no traversal (see medium_container).
+    bool intersect(const Ray &ray, Intersection &its, int medium) const {
+        if (medium >= 0 && medium_container[size_t(medium)] >= 0) {
+            if (const auto hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its)) return *hit;
+        }
+        return geometry.intersect(ray, its);
+    }
+    // Per medium: the shape that holds it, if that is the only shape whose interface names
+    // the medium (as its interior) and it is empty inside (Geometry::empty_inside); else -1.
+    // Set by build().
+    std::vector<int> medium_container;
     // Whether a ray can hit an emitter (area lights, lights at infinity); with only point
     // and directional lights, light arrives by next-event estimation alone.
     bool has_hittable_emitters() const { return lights.size() > point_and_directional; }

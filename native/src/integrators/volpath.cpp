@@ -244,7 +244,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     for (int crossing = 0;; ++crossing) {
         if (crossing > kMaxNullCrossings) return Spectrum(0.0);
         Intersection its;
-        const bool hit = scene.intersect(ray, its);
+        const bool hit = scene.intersect(ray, its, current);
         // Occluded: nothing to estimate (and no tracking to pay for) on the way there.
         if (hit && !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf])) return Spectrum(0.0);
         const Real t_end = hit ? its.t : ray.t_max;
@@ -601,7 +601,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             hit = first->hit, its = first->its;
             first = nullptr;
         } else {
-            hit = scene.intersect(ray, its);
+            hit = scene.intersect(ray, its, medium);
         }
         const Real t_end = hit ? its.t : ray.t_max;
 
@@ -801,7 +801,7 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, con
     if (!split) return radiance_path(scene, ray, medium, sampler, config, Branch::All);
     Sampler second = sampler.split();
     FirstHit first;
-    first.hit = scene.intersect(ray, first.its);
+    first.hit = scene.intersect(ray, first.its, medium);
     const Spectrum through = radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough, Spectrum(0.0), &first);
     return through + radiance_path(scene, ray, medium, second, config, Branch::Collide, through, &first);
 }

@@ -86,6 +86,7 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
 void Geometry::build() {
     prims_.clear();
     nodes_.clear();
+    solid_prim_.assign(shapes.size(), kNoPrim);
     for (int s = 0; s < int(shapes.size()); ++s) {
         if (shapes[s].kind != ShapeGeometry::Kind::Mesh) {
             prims_.push_back({s, 0});
@@ -105,6 +106,21 @@ void Geometry::build() {
     }
     nodes_.reserve(2 * prims_.size());
     build_recursive(bounds, centroids, 0, uint32_t(prims_.size()));
+    // Spheres and boxes whose bounds no other primitive's overlap are empty inside. Their
+    // bounds shrink by 1e-9 of their size first, so that a floor touching a sphere's bottom
+    // (to rounding) does not count: the sphere's exit is then found first within ray_epsilon.
+    for (uint32_t i = 0; i < prims_.size(); ++i) {
+        if (shapes[prims_[i].shape].kind == ShapeGeometry::Kind::Mesh) continue;
+        const Vec3 margin(1e-9 * max_component(bounds[i].hi - bounds[i].lo));
+        const Vec3 lo = bounds[i].lo + margin, hi = bounds[i].hi - margin;
+        bool empty = true;
+        for (uint32_t j = 0; j < prims_.size() && empty; ++j) {
+            const Bounds &b = bounds[j];
+            empty = j == i || !(b.lo.x < hi.x && b.hi.x > lo.x && b.lo.y < hi.y && b.hi.y > lo.y && b.lo.z < hi.z &&
+                                b.hi.z > lo.z);
+        }
+        if (empty) solid_prim_[size_t(prims_[i].shape)] = i;
+    }
     vertices_.assign(prims_.size(), {});
     kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
     for (size_t i = 0; i < prims_.size(); ++i) {
@@ -248,26 +264,28 @@ struct Geometry::PreparedRay {
     }
 };
 
+bool Geometry::solid_roots(uint32_t i, const Ray &ray, const Vec3 &inv_d, Real &t0, Real &t1) const {
+    const ShapeGeometry &g = shapes[prims_[i].shape];
+    if (kind_[i] == ShapeGeometry::Kind::Sphere) {
+        const Sphere &sp = spheres[g.index];
+        return sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1);
+    }
+    // Slab test in world space if the box is axis-aligned there, else in its own space,
+    // where t is the world ray's (the map is affine).
+    const Box &box = boxes[g.index];
+    if (box.aligned_bounds.valid())
+        slab(box.aligned_bounds.lo, box.aligned_bounds.hi, ray.o, inv_d, t0, t1);
+    else
+        slab(Vec3(-1.0), Vec3(1.0), box.to_local.point(ray.o), safe_inverse(box.to_local.vector(ray.d)), t0, t1);
+    return t0 <= t1;
+}
+
 bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const PreparedRay &sr, Real t_max,
                                    Hit &hit) const {
     const size_t i = size_t(&prim - prims_.data());
-    if (kind_[i] == ShapeGeometry::Kind::Box) {
-        // Slab test in world space if the box is axis-aligned there, else in its own space,
-        // where t is the world ray's (the map is affine).
-        const Box &box = boxes[shapes[prim.shape].index];
-        Real t_near, t_far;
-        if (box.aligned_bounds.valid())
-            slab(box.aligned_bounds.lo, box.aligned_bounds.hi, ray.o, sr.inv_d, t_near, t_far);
-        else
-            slab(Vec3(-1.0), Vec3(1.0), box.to_local.point(ray.o), safe_inverse(box.to_local.vector(ray.d)), t_near, t_far);
-        if (!(t_near <= t_far)) return false;
-        const Real t = t_near > ray.t_min ? t_near : t_far;
-        if (!(t > ray.t_min && t < t_max)) return false;
-        hit.t = t;
-    } else if (kind_[i] == ShapeGeometry::Kind::Sphere) {
-        const Sphere &sp = spheres[shapes[prim.shape].index];
+    if (kind_[i] != ShapeGeometry::Kind::Mesh) {
         Real t0, t1;
-        if (!sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1)) return false;
+        if (!solid_roots(uint32_t(i), ray, sr.inv_d, t0, t1)) return false;
         const Real t = t0 > ray.t_min ? t0 : t1;
         if (!(t > ray.t_min && t < t_max)) return false;
         hit.t = t;
@@ -367,6 +385,15 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
     }
     if (hit) finish(closest, ray, its);
     return hit;
+}
+
+std::optional<bool> Geometry::intersect_from_inside(int shape, const Ray &ray, Intersection &its) const {
+    const uint32_t i = solid_prim_[size_t(shape)];
+    Real t0, t1;
+    if (!solid_roots(i, ray, safe_inverse(ray.d), t0, t1) || t0 > ray.t_min || !(t1 > ray.t_min)) return std::nullopt;
+    if (!(t1 < ray.t_max)) return false;
+    finish(Hit{t1, i}, ray, its);
+    return true;
 }
 
 }  // namespace volpath

@@ -83,6 +83,20 @@ int Scene::add_shape_box(const Box &b, const ShapeInfo &info) {
 
 void Scene::build() {
     geometry.build();
+    medium_container.assign(media.size(), -1);
+    std::vector<int> interfaces(media.size(), 0);
+    for (int i = 0; i < int(shapes.size()); ++i) {
+        const ShapeInfo &s = shapes[i];
+        if (!s.medium_interface) continue;
+        for (int m : {s.interior, s.exterior}) {
+            if (m >= 0 && m < int(media.size())) ++interfaces[size_t(m)];
+        }
+        if (s.interior >= 0 && s.interior < int(media.size()) && s.interior != s.exterior && geometry.empty_inside(i))
+            medium_container[size_t(s.interior)] = i;
+    }
+    for (size_t m = 0; m < media.size(); ++m) {
+        if (interfaces[m] != 1) medium_container[m] = -1;
+    }
     for (Light &l : lights) prepare_light(l, geometry);
     sun.reset();
     has_environment = false;
