@@ -390,7 +390,10 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
 std::optional<bool> Geometry::intersect_from_inside(int shape, const Ray &ray, Intersection &its) const {
     const uint32_t i = solid_prim_[size_t(shape)];
     Real t0, t1;
-    if (!solid_roots(i, ray, safe_inverse(ray.d), t0, t1) || t0 > ray.t_min || !(t1 > ray.t_min)) return std::nullopt;
+    // Only an axis-aligned box's slab test reads the direction's inverse.
+    const bool aligned_box = kind_[i] == ShapeGeometry::Kind::Box && boxes[shapes[prims_[i].shape].index].aligned_bounds.valid();
+    const Vec3 inv_d = aligned_box ? safe_inverse(ray.d) : Vec3(0.0);
+    if (!solid_roots(i, ray, inv_d, t0, t1) || t0 > ray.t_min || !(t1 > ray.t_min)) return std::nullopt;
     if (!(t1 < ray.t_max)) return false;
     finish(Hit{t1, i}, ray, its);
     return true;
