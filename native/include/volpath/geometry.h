@@ -110,6 +110,7 @@ private:
     std::vector<uint32_t> solid_prim_;
 
     Bounds primitive_bounds(const Primitive &p) const;
+    bool overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const;
     uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
                              uint32_t begin, uint32_t end);
     struct PreparedRay;  // per-ray set-up of the slab and triangle tests

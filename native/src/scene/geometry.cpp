@@ -112,14 +112,9 @@ void Geometry::build() {
     for (uint32_t i = 0; i < prims_.size(); ++i) {
         if (shapes[prims_[i].shape].kind == ShapeGeometry::Kind::Mesh) continue;
         const Vec3 margin(1e-9 * max_component(bounds[i].hi - bounds[i].lo));
-        const Vec3 lo = bounds[i].lo + margin, hi = bounds[i].hi - margin;
-        bool empty = true;
-        for (uint32_t j = 0; j < prims_.size() && empty; ++j) {
-            const Bounds &b = bounds[j];
-            empty = j == i || !(b.lo.x < hi.x && b.hi.x > lo.x && b.lo.y < hi.y && b.hi.y > lo.y && b.lo.z < hi.z &&
-                                b.hi.z > lo.z);
-        }
-        if (empty) solid_prim_[size_t(prims_[i].shape)] = i;
+        Bounds inner;
+        inner.lo = bounds[i].lo + margin, inner.hi = bounds[i].hi - margin;
+        if (!overlaps_another(inner, i, bounds)) solid_prim_[size_t(prims_[i].shape)] = i;
     }
     vertices_.assign(prims_.size(), {});
     kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
@@ -130,6 +125,31 @@ void Geometry::build() {
         const TriangleMesh &m = meshes[g.index];
         for (int k = 0; k < 3; ++k) vertices_[i][k] = m.positions[m.triangles[prims_[i].index][k]];
     }
+}
+
+// Whether any primitive but `self` has bounds overlapping `box` (open intervals): the BVH's
+// nodes narrow the search to the primitives near it.
+bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const {
+    auto overlap = [&](const Vec3 &lo, const Vec3 &hi) {
+        return lo.x < box.hi.x && hi.x > box.lo.x && lo.y < box.hi.y && hi.y > box.lo.y && lo.z < box.hi.z &&
+               hi.z > box.lo.z;
+    };
+    std::vector<uint32_t> stack{0};
+    while (!stack.empty()) {
+        const Node &node = nodes_[stack.back()];
+        const uint32_t current = stack.back();
+        stack.pop_back();
+        const Real *b = node.bounds;
+        if (!overlap({b[0], b[1], b[2]}, {b[3], b[4], b[5]})) continue;
+        if (node.count == 0) {
+            stack.push_back(current + 1), stack.push_back(node.first);
+            continue;
+        }
+        for (uint32_t j = node.first; j < node.first + node.count; ++j) {
+            if (j != self && overlap(bounds[j].lo, bounds[j].hi)) return true;
+        }
+    }
+    return false;
 }
 
 Bounds Geometry::bounds() const {
