@@ -1,9 +1,9 @@
 """Time to equal error: Volpath against Mitsuba 3 and Cycles 5.0 on the bench scenes, in one run.
 
-For each scene: a high-spp Volpath reference; then each renderer renders at a ladder of
-sample counts (2 threads, the second of two renders timed, so Mitsuba's LLVM kernels are
-compiled beforehand, Cycles' per-render scene synchronisation subtracted) and its RMSE against the reference is
-fitted as RMSE = a * t^b on log-log axes. The target error is what the fastest Mitsuba
+For each scene: a high-spp Volpath reference; then the renderers render at a ladder of
+sample counts, each rung by all of them in turn (2 threads; Mitsuba's second of two
+renders timed, so its LLVM kernels are compiled beforehand; Cycles' per-render scene
+synchronisation subtracted) and each one's RMSE against the reference is fitted as RMSE = a * t^b on log-log axes. The target error is what the fastest Mitsuba
 variant reaches at --target-spp; the table gives the time each renderer needs for it, and
 Volpath's ratio to the better peer. Cycles renders each scene's equivalent built through
 the bpy module (bench/cycles_scenes.py). Each peer's highest-spp image also checks that
@@ -114,20 +114,20 @@ def run_scene(key, args, variants):
     ref_spp = int(2 ** np.clip(np.round(np.log2(16 * args.ref_seconds / max(t16, 1e-3))), 8, 16))
     ref, ref_time = vp.render(ref_spp, 12345)
     ref = ref.astype(np.float64)
-    rows = {}
     renderers = [vp] + [Mitsuba(v, path, args.res) for v in variants]
     if args.cycles:
         from cycles_scenes import Cycles
 
         renderers.append(Cycles(key, args.res, THREADS))
-    for r in renderers:
-        pts = []
-        for spp in args.ladder:
+    # Rung by rung, every renderer in turn: the machine's speed drifts over minutes (shared
+    # hosts), and interleaving spreads the drift over all renderers instead of one.
+    rows = {r.name: [] for r in renderers}
+    for spp in args.ladder:
+        for r in renderers:
             if spp < getattr(r, "min_spp", 1):
                 continue
             img, sec = r.render(spp, 1 + spp)
-            pts.append((sec, rmse(img, ref), spp, img))
-        rows[r.name] = pts
+            rows[r.name].append((sec, rmse(img, ref), spp, img))
     # Target: the fastest Mitsuba variant's error at target_spp (or Volpath's own if no peer).
     peers = [n for n in rows if n.startswith("mitsuba")]
     target = None
