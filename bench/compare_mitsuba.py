@@ -127,6 +127,9 @@ def run_scene(key, args, variants):
             if spp < getattr(r, "min_spp", 1):
                 continue
             img, sec = r.render(spp, 1 + spp)
+            # Repeats keep the fastest time: the machine only ever slows a render down.
+            for _ in range(args.repeats - 1):
+                sec = min(sec, r.render(spp, 1 + spp)[1])
             rows[r.name].append((sec, rmse(img, ref), spp, img))
     # Target: the fastest Mitsuba variant's error at target_spp (or Volpath's own if no peer).
     peers = [n for n in rows if n.startswith("mitsuba")]
@@ -170,7 +173,8 @@ def markdown(results, args, variants):
              f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
              f"spp shown. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
              "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) +
-             " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation); a time "
+             " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation)" +
+             (f"; each the fastest of {args.repeats} renders" if args.repeats > 1 else "") + "; a time "
              "marked ≤ is the cheapest render's, which already meets the target (no extrapolation below it).",
              f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.", "",
              "| scene | ref spp | target RMSE (rel.) | Volpath s | " +
@@ -203,6 +207,8 @@ def main():
     ap.add_argument("--target-spp", type=int, default=64)
     ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
     ap.add_argument("--out", help="write the Markdown table here (replacing the Mitsuba section)")
+    ap.add_argument("--repeats", type=int, default=1,
+                    help="render each rung this many times and keep the fastest (for noisy machines)")
     ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
     args = ap.parse_args()
     if args.cycles:
