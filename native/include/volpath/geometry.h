@@ -123,8 +123,9 @@ private:
     };
     bool intersect_primitive(const Primitive &p, const Ray &ray, const PreparedRay &prepared, Real t_max,
                              Hit &hit) const;
-    // A sphere's or box's entry and exit distances (t0 <= t1) along the whole line.
-    bool solid_roots(uint32_t prim, const Ray &ray, const Vec3 &inv_d, Real &t0, Real &t1) const;
+    // A sphere's or box's entry and exit distances (t0 <= t1) along the whole line; inv_d:
+    // the direction's inverse if the caller has it (else worked out where needed).
+    bool solid_roots(uint32_t prim, const Ray &ray, const Vec3 *inv_d, Real &t0, Real &t1) const;
     void finish(const Hit &hit, const Ray &ray, Intersection &its) const;
 };
 

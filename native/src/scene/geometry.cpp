@@ -284,7 +284,7 @@ struct Geometry::PreparedRay {
     }
 };
 
-bool Geometry::solid_roots(uint32_t i, const Ray &ray, const Vec3 &inv_d, Real &t0, Real &t1) const {
+bool Geometry::solid_roots(uint32_t i, const Ray &ray, const Vec3 *inv_d, Real &t0, Real &t1) const {
     const ShapeGeometry &g = shapes[prims_[i].shape];
     if (kind_[i] == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[g.index];
@@ -294,7 +294,7 @@ bool Geometry::solid_roots(uint32_t i, const Ray &ray, const Vec3 &inv_d, Real &
     // where t is the world ray's (the map is affine).
     const Box &box = boxes[g.index];
     if (box.aligned_bounds.valid())
-        slab(box.aligned_bounds.lo, box.aligned_bounds.hi, ray.o, inv_d, t0, t1);
+        slab(box.aligned_bounds.lo, box.aligned_bounds.hi, ray.o, inv_d ? *inv_d : safe_inverse(ray.d), t0, t1);
     else
         slab(Vec3(-1.0), Vec3(1.0), box.to_local.point(ray.o), safe_inverse(box.to_local.vector(ray.d)), t0, t1);
     return t0 <= t1;
@@ -305,7 +305,7 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const 
     const size_t i = size_t(&prim - prims_.data());
     if (kind_[i] != ShapeGeometry::Kind::Mesh) {
         Real t0, t1;
-        if (!solid_roots(uint32_t(i), ray, sr.inv_d, t0, t1)) return false;
+        if (!solid_roots(uint32_t(i), ray, &sr.inv_d, t0, t1)) return false;
         const Real t = t0 > ray.t_min ? t0 : t1;
         if (!(t > ray.t_min && t < t_max)) return false;
         hit.t = t;
@@ -410,10 +410,7 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
 std::optional<bool> Geometry::intersect_from_inside(int shape, const Ray &ray, Intersection &its) const {
     const uint32_t i = solid_prim_[size_t(shape)];
     Real t0, t1;
-    // Only an axis-aligned box's slab test reads the direction's inverse.
-    const bool aligned_box = kind_[i] == ShapeGeometry::Kind::Box && boxes[shapes[prims_[i].shape].index].aligned_bounds.valid();
-    const Vec3 inv_d = aligned_box ? safe_inverse(ray.d) : Vec3(0.0);
-    if (!solid_roots(i, ray, inv_d, t0, t1) || t0 > ray.t_min || !(t1 > ray.t_min)) return std::nullopt;
+    if (!solid_roots(i, ray, nullptr, t0, t1) || t0 > ray.t_min || !(t1 > ray.t_min)) return std::nullopt;
     if (!(t1 < ray.t_max)) return false;
     finish(Hit{t1, i}, ray, its);
     return true;

@@ -91,9 +91,10 @@ void Scene::build() {
         for (int m : {s.interior, s.exterior}) {
             if (m >= 0 && m < int(media.size())) ++interfaces[size_t(m)];
         }
-        if (s.interior >= 0 && s.interior < int(media.size()) && s.interior != s.exterior && geometry.empty_inside(i))
+        if (s.interior >= 0 && s.interior < int(media.size()) && geometry.empty_inside(i))
             medium_container[size_t(s.interior)] = i;
     }
+    // A medium named by a second interface (or as both sides of one) is not held by one shape.
     for (size_t m = 0; m < media.size(); ++m) {
         if (interfaces[m] != 1) medium_container[m] = -1;
     }
