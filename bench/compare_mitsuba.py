@@ -1,6 +1,7 @@
 """Time to equal error: Volpath against Mitsuba 3 and Cycles 5.0 on the bench scenes, in one run.
 
-For each scene: a high-spp Volpath reference; then the renderers render at a ladder of
+For each scene: a high-spp Volpath reference (two independent halves, so that its own
+variance can be taken off every squared error); then the renderers render at a ladder of
 sample counts, each rung by all of them in turn (2 threads; Mitsuba's second of two
 renders timed, so its LLVM kernels are compiled beforehand; Cycles' per-render scene
 synchronisation subtracted) and each one's RMSE against the reference is fitted as RMSE = a * t^b on log-log axes. The target error is what the fastest Mitsuba
@@ -38,8 +39,26 @@ SCENES = {
 THREADS = 2
 
 
-def rmse(img, ref):
-    return float(np.sqrt(np.mean((np.asarray(img, np.float64) - ref) ** 2)))
+def mse(img, ref):
+    return float(np.mean((np.asarray(img, np.float64) - ref) ** 2))
+
+
+def reference(vp, spp):
+    """Volpath at spp, as the mean of two independent halves, and the variance that mean
+    still has, E|A - B|^2 / 4 (pixel mean). An image's squared error against the reference is
+    its own plus the reference's (independent seeds): without taking the latter off, a noisy
+    reference flattens every error curve and favours the noisier renderer."""
+    a, t_a = vp.render(spp // 2, 12345)
+    b, t_b = vp.render(spp // 2, 54321)
+    a, b = a.astype(np.float64), b.astype(np.float64)
+    return (a + b) / 2, mse(a, b) / 4, t_a + t_b
+
+
+def rmse_net(img, ref, ref_var):
+    """RMSE against the true image, estimated: None where the reference's variance is not
+    small enough to tell (the render is as good as the reference)."""
+    e = mse(img, ref) - ref_var
+    return float(np.sqrt(e)) if e > 0 else None
 
 
 class Volpath:
@@ -112,8 +131,7 @@ def run_scene(key, args, variants):
     vp = Volpath(path, args.res)
     _, t16 = vp.render(16, 1)
     ref_spp = int(2 ** np.clip(np.round(np.log2(16 * args.ref_seconds / max(t16, 1e-3))), 8, 16))
-    ref, ref_time = vp.render(ref_spp, 12345)
-    ref = ref.astype(np.float64)
+    ref, ref_var, ref_time = reference(vp, ref_spp)
     renderers = [vp] + [Mitsuba(v, path, args.res) for v in variants]
     if args.cycles:
         from cycles_scenes import Cycles
@@ -130,7 +148,7 @@ def run_scene(key, args, variants):
             # Repeats keep the fastest time: the machine only ever slows a render down.
             for _ in range(args.repeats - 1):
                 sec = min(sec, r.render(spp, 1 + spp)[1])
-            rows[r.name].append((sec, rmse(img, ref), spp, img))
+            rows[r.name].append((sec, rmse_net(img, ref, ref_var), spp, img, np.sqrt(mse(img, ref))))
     # Target: the fastest Mitsuba variant's error at target_spp (or Volpath's own if no peer).
     peers = [n for n in rows if n.startswith("mitsuba")]
     target = None
@@ -140,11 +158,14 @@ def run_scene(key, args, variants):
         target = at[best][1]
     else:
         target = next(p for p in rows["volpath"] if p[2] == args.target_spp)[1]
-    result = {"ref_spp": ref_spp, "ref_time": ref_time, "target": target, "mean": float(ref.mean()), "renderers": {}}
+    if target is None:
+        raise SystemExit(f"({key}): the target render is as good as the reference; raise --ref-seconds")
+    result = {"ref_spp": ref_spp, "ref_rmse": float(np.sqrt(ref_var)), "ref_time": ref_time, "target": target,
+              "mean": float(ref.mean()), "renderers": {}}
     for n, pts in rows.items():
-        t, slope, bound = time_for([(p[0], p[1]) for p in pts], target)
+        t, slope, bound = time_for([(p[0], p[1]) for p in pts if p[1] is not None], target)
         result["renderers"][n] = {"time": t, "slope": slope, "bound": bound,
-                                  "points": [(p[2], p[0], p[1]) for p in pts]}
+                                  "points": [(p[2], p[0], p[1], p[4]) for p in pts]}
         if n != "volpath":
             # Agreement: the highest-spp peer image against the reference, by the mean.
             img_hi = pts[-1][3]
@@ -171,13 +192,14 @@ def markdown(results, args, variants):
     peers = [f"mitsuba {v}" for v in variants] + (["cycles"] if args.cycles else [])
     lines = [f"## Volpath vs Mitsuba 3 and Cycles 5.0 — {date}", "",
              f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
-             f"spp shown. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
+             "spp shown, as two independent halves, whose difference measures the reference's own variance (its "
+             "RMSE shown): it is taken off every squared error, so that RMSEs are against the true image. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
              "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) +
              " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation)" +
              (f"; each the fastest of {args.repeats} renders" if args.repeats > 1 else "") + "; a time "
              "marked ≤ is the cheapest render's, which already meets the target (no extrapolation below it).",
              f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.", "",
-             "| scene | ref spp | target RMSE (rel.) | Volpath s | " +
+             "| scene | ref spp (RMSE) | target RMSE (rel.) | Volpath s | " +
              " | ".join(f"{v} s" for v in peers) + " | Volpath / best peer | slopes (V; peers) | mean diff vs peers |",
              "|---|---|---|---|" + "---|" * len(peers) + "---|---|---|"]
     for key, r in results.items():
@@ -188,13 +210,14 @@ def markdown(results, args, variants):
         slopes = f"{rv['slope']:.2f}; " + ", ".join(f"{m['slope']:.2f}" for m in mts if m)
         agree = ", ".join(f"{100 * m['agreement']['mean_diff_rel']:+.2f} %" for m in mts if m)
         shown = lambda m: f"{'≤' if m['bound'] else ''}{m['time']:.3f}"  # noqa: E731
-        lines.append(f"| ({key}) {SCENES[key][0]} | {r['ref_spp']} | {r['target']:.4g} ({r['target'] / max(r['mean'], 1e-12):.2%}) | "
+        lines.append(f"| ({key}) {SCENES[key][0]} | {r['ref_spp']} ({r['ref_rmse']:.2g}) | {r['target']:.4g} ({r['target'] / max(r['mean'], 1e-12):.2%}) | "
                      f"{shown(rv)} | " + " | ".join(shown(m) if m else "—" for m in mts) +
                      f" | {ratio} | {slopes} | {agree} |")
-    lines += ["", "Raw points (spp, seconds, RMSE):", ""]
+    lines += ["", "Raw points (spp, seconds, RMSE net of the reference's variance, RMSE against the reference):", ""]
+    net = lambda e: "—" if e is None else f"{e:.4g}"  # noqa: E731
     for key, r in results.items():
         for n, rr in r["renderers"].items():
-            pts = "; ".join(f"{s}: {t:.3f} s, {e:.4g}" for s, t, e in rr["points"])
+            pts = "; ".join(f"{s}: {t:.3f} s, {net(e)}, {raw:.4g}" for s, t, e, raw in rr["points"])
             lines.append(f"- ({key}) {n}: {pts}")
     return "\n".join(lines) + "\n"
 
