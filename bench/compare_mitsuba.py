@@ -193,7 +193,8 @@ def markdown(results, args, variants):
     lines = [f"## Volpath vs Mitsuba 3 and Cycles 5.0 — {date}", "",
              f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
              "spp shown, as two independent halves, whose difference measures the reference's own variance (its "
-             "RMSE shown): it is taken off every squared error, so that RMSEs are against the true image. Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
+             "RMSE shown): it is taken off every squared error, so that RMSEs are against the true image. "
+             f"Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
              "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) +
              " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation)" +
              (f"; each the fastest of {args.repeats} renders" if args.repeats > 1 else "") + "; a time "
