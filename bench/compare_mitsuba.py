@@ -54,11 +54,10 @@ def reference(vp, spp):
     return (a + b) / 2, mse(a, b) / 4, t_a + t_b
 
 
-def rmse_net(img, ref, ref_var):
-    """RMSE against the true image, estimated: None where the reference's variance is not
-    small enough to tell (the render is as good as the reference)."""
-    e = mse(img, ref) - ref_var
-    return float(np.sqrt(e)) if e > 0 else None
+def rmse_net(e, ref_var):
+    """RMSE against the true image, from the squared error e against the reference: None
+    where the reference's variance is not small enough to tell (the render is as good)."""
+    return float(np.sqrt(e - ref_var)) if e > ref_var else None
 
 
 class Volpath:
@@ -148,7 +147,8 @@ def run_scene(key, args, variants):
             # Repeats keep the fastest time: the machine only ever slows a render down.
             for _ in range(args.repeats - 1):
                 sec = min(sec, r.render(spp, 1 + spp)[1])
-            rows[r.name].append((sec, rmse_net(img, ref, ref_var), spp, img, np.sqrt(mse(img, ref))))
+            e = mse(img, ref)
+            rows[r.name].append((sec, rmse_net(e, ref_var), spp, img, np.sqrt(e)))
     # Target: the fastest Mitsuba variant's error at target_spp (or Volpath's own if no peer).
     peers = [n for n in rows if n.startswith("mitsuba")]
     target = None
