@@ -149,35 +149,55 @@ def _stem(study):
 
 
 def reference(study, res, seconds):
+    """The reference image and its own variance (compare_mitsuba.reference: two independent
+    halves), cached."""
     file = os.path.join(CACHE, f"{_stem(study)}_{res}.npz")
     if os.path.exists(file):
-        return np.load(file)["image"]
+        cached = np.load(file)
+        if "var" in cached:  # older caches lack the variance: render again
+            return cached["image"], float(cached["var"])
     _, t16 = render(study, res, study.reference, NULL, 16, 1)
     spp = int(2 ** np.clip(np.round(np.log2(16 * seconds / max(t16, 1e-3))), 8, 16))
     print(f"  reference: {spp} spp", flush=True)
-    img, _ = render(study, res, study.reference, NULL, spp, 999)
-    np.savez_compressed(file, image=img, spp=spp)
-    return img
+
+    class Halves:
+        def render(self, spp, seed):
+            return render(study, res, study.reference, NULL, spp, seed)
+
+    img, var, _ = cm.reference(Halves(), spp)
+    np.savez_compressed(file, image=img, var=var, spp=spp)
+    return img, var
 
 
-def measure(study, res, options, kwargs, ladder, ref):
+def measure(study, res, options, kwargs, ladder, ref, ref_var):
+    """(spp, seconds, RMSE net of the reference's noise or None where it is below it) per
+    rung, and the estimator's bias."""
     pts = []
     for spp in ladder:
         img, sec = render(study, res, options, kwargs, spp, spp)
-        pts.append((spp, sec, cm.rmse(img, ref)))
-    # Bias: two independent renders at the top of the ladder; what their mean's error has
-    # beyond the noise (estimated from their difference) does not shrink with samples.
+        pts.append((spp, sec, cm.rmse_net(cm.mse(img, ref), ref_var)))
+    # Bias: two independent renders at the top of the ladder; what their mean's squared error
+    # has beyond its own noise (from their difference) and the reference's does not shrink
+    # with samples.
     a, _ = render(study, res, options, kwargs, ladder[-1], 7001)
     b, _ = render(study, res, options, kwargs, ladder[-1], 7002)
-    noise2 = np.mean((a - b) ** 2) / 4
-    bias = float(np.sqrt(max(0.0, np.mean(((a + b) / 2 - ref) ** 2) - noise2)))
+    noise2 = cm.mse(a, b) / 4
+    bias = float(np.sqrt(max(0.0, cm.mse((a + b) / 2, ref) - noise2 - ref_var)))
     return pts, bias
+
+
+def measured(pts):
+    """The points whose error could be told from the reference's noise."""
+    return [p for p in pts if p[2] is not None]
 
 
 def time_to(pts, target, bias):
     """Seconds to reach `target` from the fit; None when the estimator's bias keeps it
-    above the target."""
+    above the target, or fewer than two of its errors stand out of the reference's noise."""
     if bias is not None and bias > 0.7 * target:
+        return None
+    pts = measured(pts)
+    if len(pts) < 2:
         return None
     t, _, _ = cm.time_for([(s, e) for _, s, e in pts], target)
     return t
@@ -194,6 +214,7 @@ def plot(name, curves, target, file):
     for i, (label, pts) in enumerate(curves.items()):
         # Twenty distinct colours, and dashes for the peers, so no two curves look alike.
         peer = label.startswith(("Mitsuba", "Cycles"))
+        pts = measured(pts)
         ax.loglog([s for _, s, _ in pts], [e for _, _, e in pts], "o--" if peer else "o-", ms=3,
                   color=colours(i % 20), label=label)
     ax.axhline(target, color="grey", lw=0.8, ls="--", label="target error")
@@ -234,19 +255,23 @@ def summary_plot(rows, file):
 
 def measure_study(study, args):
     """Curves and biases of every variant and peer, and the target error; saved as JSON."""
-    ref = reference(study, args.res, args.ref_seconds)
+    ref, ref_var = reference(study, args.res, args.ref_seconds)
     curves, biases = {}, {}
     for label, kwargs, options in study.variants:
-        curves[label], biases[label] = measure(study, args.res, options, kwargs, args.ladder, ref)
+        curves[label], biases[label] = measure(study, args.res, options, kwargs, args.ladder, ref, ref_var)
     for label, make in study.peers:
         renderer = make(study.path, args.res)
-        curves[label] = [(spp, sec, cm.rmse(img, ref)) for spp in args.ladder for img, sec in [renderer.render(spp, spp)]]
+        curves[label] = [(spp, sec, cm.rmse_net(cm.mse(img, ref), ref_var))
+                         for spp in args.ladder for img, sec in [renderer.render(spp, spp)]]
         biases[label] = None
     # The common target: the reference estimator's error at the middle of the ladder.
     mid = args.ladder[len(args.ladder) // 2]
     plain = next(l for l, kw, o in study.variants if kw == NULL and o == study.reference)
     target = next(e for s, _, e in curves[plain] if s == mid)
-    return {"curves": curves, "biases": biases, "target": target, "mean": float(ref.mean())}
+    if target is None:
+        raise SystemExit(f"{study.name}: the reference is too noisy to measure the target error; raise --ref-seconds")
+    return {"curves": curves, "biases": biases, "target": target, "mean": float(ref.mean()),
+            "ref_rmse": float(np.sqrt(ref_var))}
 
 
 def report(study, result):
@@ -259,13 +284,19 @@ def report(study, result):
     rows = []
     for label, pts in curves.items():
         t, bias = times[label], biases[label]
-        slope = cm.fit([(s, e) for _, s, e in pts])[1]
-        rows.append(f"| {label} | {'%.3g' % t if t else 'never (bias)'} | {slope:.2f} | "
-                    f"{'—' if bias is None else '%.3g' % bias} | " +
-                    " · ".join(f"{s}: {e:.3g} in {sec:.2f} s" for s, sec, e in pts) + " |")
+        fitted = measured(pts)
+        slope = "%.2f" % cm.fit([(s, e) for _, s, e in fitted])[1] if len(fitted) >= 2 else "—"
+        if t:
+            reach = "%.3g" % t
+        else:
+            reach = "never (bias)" if bias is not None and bias > 0.7 * target else "— (too few points)"
+        rows.append(f"| {label} | {reach} | {slope} | {'—' if bias is None else '%.3g' % bias} | " +
+                    " · ".join(f"{s}: {'%.3g' % e if e is not None else 'within the reference noise'} in {sec:.2f} s"
+                               for s, sec, e in pts) + " |")
     mean = result["mean"]
     section = (f"### {study.name}\n\n{study.desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
-               f"({target / mean:.1%} of the mean).\n\n![{study.name}]({png})\n\n"
+               f"({target / mean:.1%} of the mean); the reference's own RMSE {result['ref_rmse']:.2g}."
+               f"\n\n![{study.name}]({png})\n\n"
                "| estimator | seconds to target | slope | bias | spp: RMSE in time |\n|---|---|---|---|---|\n"
                + "\n".join(rows) + "\n")
     fixed = [l for l, kw, o in study.variants if list(kw) == ["tracer"] and kw["tracer"] != "auto" and not o]
@@ -327,8 +358,12 @@ def main():
             "with independent samples, and more steeply with the default low-discrepancy (Sobol) sampler "
             "where the integrand is smooth; "
             "an estimator that leaves physics out (absorption only, single scattering, a depth limit) "
-            "flattens at its bias, listed in the tables (the bias estimate includes the reference's own "
-            "noise, so unbiased estimators show a small floor too). 'Seconds to target' comes from the "
+            "flattens at its bias, listed in the tables. The reference is rendered as two independent "
+            "halves, whose difference measures its own variance; that variance is taken off every "
+            "squared error and off the bias estimate (an image's squared error against an independent "
+            "reference is its own plus the reference's), so the curves are errors against the true "
+            "image, and a point whose error the reference's noise hides is left out of the fit. "
+            "'Seconds to target' comes from the "
             "fit and is 'never' where the bias exceeds the target. Renders under 2 s are timed twice "
             "and the faster kept. Mitsuba 3 renders the bench files themselves; Cycles 5.0 renders "
             "each scene rebuilt through the `bpy` module (bench/cycles_scenes.py; its per-render scene "
