@@ -32,3 +32,44 @@ def test_the_reference_variance_is_measured_and_taken_off():
     assert abs(net / np.sqrt(1 / 4) - 1) < 0.05
     # An image as good as the reference cannot be told apart from it.
     assert compare_mitsuba.rmse_net(0.5 * ref_var, ref_var) is None
+
+
+def load_accuracy_study():
+    import importlib.util
+
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "bench", "accuracy", "run.py")
+    spec = importlib.util.spec_from_file_location("accuracy_run", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_accuracy_study_measures_net_errors_and_bias(tmp_path, monkeypatch):
+    # bench/accuracy/run.py with the same fake renderer: options' "bias" adds a constant to
+    # every pixel, which its bias estimate must find and an unbiased one must not.
+    run = load_accuracy_study()
+    monkeypatch.setattr(run, "CACHE", str(tmp_path))
+
+    def render(study, res, options, kwargs, spp, seed):
+        img, seconds = NoisyRenderer().render(spp, seed)
+        return img + options.get("bias", 0.0), 1.0 * spp
+
+    monkeypatch.setattr(run, "render", render)
+    study = run.Study("fake", "", "", [])
+    # The reference: spp from the 16-spp render's time (16 s here) and --ref-seconds: 256.
+    ref, ref_var = run.reference(study, 64, seconds=256)
+    assert abs(ref_var / (1 / 256) - 1) < 0.05
+    again = run.reference(study, 64, seconds=256)  # cached, with its variance
+    assert np.array_equal(again[0], ref) and again[1] == ref_var
+    pts, bias = run.measure(study, 64, {}, {}, [4, 16], ref, ref_var)
+    for spp, seconds, err in pts:
+        assert seconds == spp and abs(err / np.sqrt(1 / spp) - 1) < 0.05
+    # The bias estimate's own spread: its mean squares (about 1/32, the 16-spp pair's mean)
+    # are each known to 1.3 %, their difference to about 6e-4, so a true bias of 0 reads
+    # below sqrt(4 * 6e-4) = 0.05 but once in 30000 (four standard deviations).
+    assert bias < 0.05
+    _, bias = run.measure(study, 64, {"bias": 0.2}, {}, [4, 16], ref, ref_var)
+    assert abs(bias - 0.2) < 0.02
+    # Time to an error between the rungs' errors (0.5 at 4 s, 0.25 at 16 s): the fit's slope
+    # is -0.5, so 0.3 takes (0.5 / 0.3)^2 * 4 = 11.1 s.
+    assert abs(run.time_to(pts, 0.3, 0.0) / 11.1 - 1) < 0.1
