@@ -191,10 +191,15 @@ def measured(pts):
     return [p for p in pts if p[2] is not None]
 
 
+def biased(bias, target):
+    """Whether the estimator's bias keeps it from ever reaching the target error."""
+    return bias is not None and bias > 0.7 * target
+
+
 def time_to(pts, target, bias):
-    """Seconds to reach `target` from the fit; None when the estimator's bias keeps it
-    above the target, or fewer than two of its errors stand out of the reference's noise."""
-    if bias is not None and bias > 0.7 * target:
+    """Seconds to reach `target` from the fit; None when the estimator is biased(), or fewer
+    than two of its errors stand out of the reference's noise."""
+    if biased(bias, target):
         return None
     pts = measured(pts)
     if len(pts) < 2:
@@ -286,10 +291,7 @@ def report(study, result):
         t, bias = times[label], biases[label]
         fitted = measured(pts)
         slope = "%.2f" % cm.fit([(s, e) for _, s, e in fitted])[1] if len(fitted) >= 2 else "—"
-        if t:
-            reach = "%.3g" % t
-        else:
-            reach = "never (bias)" if bias is not None and bias > 0.7 * target else "— (too few points)"
+        reach = "%.3g" % t if t else "never (bias)" if biased(bias, target) else "— (too few points)"
         rows.append(f"| {label} | {reach} | {slope} | {'—' if bias is None else '%.3g' % bias} | " +
                     " · ".join(f"{s}: {'%.3g' % e if e is not None else 'within the reference noise'} in {sec:.2f} s"
                                for s, sec, e in pts) + " |")
