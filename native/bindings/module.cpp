@@ -491,11 +491,13 @@ PYBIND11_MODULE(_core, m) {
     });
     // Nearest hit of each ray (rows of o and d): t (inf on a miss), the shape index and the
     // geometric normal; `medium`: the one the rays travel in, as the tracers pass it.
-    m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d, int medium) {
+    // medium None: the plain BVH traversal; else the ray travels in that medium (-1: none),
+    // with the shortcuts of Scene::intersect.
+    m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d, std::optional<int> medium) {
         if (!s.built) s.build();
         const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
         if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
-        if (medium < -1 || medium >= int(s.media.size())) throw std::out_of_range("invalid medium");
+        if (medium && (*medium < -1 || *medium >= int(s.media.size()))) throw std::out_of_range("invalid medium");
         py::array_t<double> t(os.size()), n({py::ssize_t(os.size()), py::ssize_t(3)});
         py::array_t<int> shape(os.size());
         auto tt = t.mutable_unchecked<1>();
@@ -503,17 +505,23 @@ PYBIND11_MODULE(_core, m) {
         auto ss = shape.mutable_unchecked<1>();
         for (size_t i = 0; i < os.size(); ++i) {
             Intersection its;
-            const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its, medium);
+            const Ray ray{os[i], normalize(ds[i]), 0, kInfinity};
+            const bool hit = medium ? s.intersect(ray, its, *medium) : s.intersect(ray, its);
             tt(i) = hit ? its.t : kInfinity;
             ss(i) = hit ? its.shape : -1;
             for (int k = 0; k < 3; ++k) nn(i, k) = hit ? its.n[k] : 0.0;
         }
         return py::make_tuple(t, shape, n);
-    }, py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = -1);
+    }, py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none());
     // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
     m.def("medium_containers", [](Scene &s) {
         if (!s.built) s.build();
         return s.medium_container;
+    });
+    // The shape that holds all others (Geometry::enclosure), or -1.
+    m.def("enclosure", [](Scene &s) {
+        if (!s.built) s.build();
+        return s.geometry.enclosure();
     });
     m.def("sphere_roots", [](Array3 center, double radius, Array3 o, Array3 d) -> py::object {
         double t0, t1;

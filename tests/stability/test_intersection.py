@@ -148,3 +148,54 @@ def test_rays_inside_an_empty_container_hit_it_first(seed, box, inner):
     t, shape, n = _core.intersect(native, origins, dirs)
     assert np.array_equal(shape_fast, shape)
     assert np.array_equal(t_fast, t) and np.array_equal(n_fast, n)
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), box=st.booleans(), aligned=st.booleans(), poke_out=st.booleans())
+def test_rays_leaving_the_enclosure_meet_nothing_the_traversal_would(seed, box, aligned, poke_out):
+    """A sphere or box holding every other shape (a fog box around the scene) is the
+    scene's enclosure (Geometry::enclosure): rays outside it that move away skip the BVH.
+    They must hit exactly what the full traversal hits, from inside, from outside and from
+    just past its surface (where rays leaving it start); a shape poking out of it, or a
+    shape touching its face from inside, leaves no room for error either."""
+    rng = np.random.default_rng(seed)
+    lin = np.diag(rng.uniform(0.5, 2.0, 3))
+    if not aligned:
+        lin = lin @ np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = lin, rng.uniform(-1, 1, 3)
+    if box:
+        enclosure = f'<shape type="cube"><transform name="to_world">{_matrix_text(m)}</transform><bsdf type="null"/></shape>'
+    else:
+        c = m[:3, 3]
+        enclosure = (f'<shape type="sphere"><point name="center" value="{c[0]!r}, {c[1]!r}, {c[2]!r}"/>'
+                     '<float name="radius" value="1.5"/><bsdf type="null"/></shape>')
+    inside = [m[:3, 3] + lin @ rng.uniform(-0.25, 0.25, 3) * (1 if box else 0.5) for _ in range(2)]
+    q = np.eye(4)
+    q[:3, :3], q[:3, 3] = rng.normal(size=(3, 3)) * 0.1, inside[1]
+    others = [f'<shape type="sphere"><point name="center" value="{inside[0][0]!r}, {inside[0][1]!r}, {inside[0][2]!r}"/>'
+              '<float name="radius" value="0.1"/></shape>',
+              f'<shape type="rectangle"><transform name="to_world">{_matrix_text(q)}</transform></shape>']
+    if poke_out:  # reaches from inside to far outside
+        others.append(f'<shape type="sphere"><point name="center" value="{inside[0][0]!r}, {inside[0][1]!r}, {inside[0][2] + 4!r}"/>'
+                      '<float name="radius" value="0.3"/></shape>')
+    native = volpath.load_string(S.scene(S.camera(res=2), enclosure, *others)).native
+    assert _core.enclosure(native) == (-1 if poke_out else 0)
+    # Origins inside, outside, and just past the surface where rays from inside leave it.
+    centre = m[:3, 3]
+    o_in = centre + rng.uniform(-0.4, 0.4, (32, 3)) @ lin.T
+    d_in = rng.normal(size=(32, 3))
+    t, shape, n = _core.intersect(native, o_in, d_in)
+    exits = (shape == 0) & np.isfinite(t)
+    d_unit = d_in / np.linalg.norm(d_in, axis=1, keepdims=True)
+    p_exit = o_in[exits] + t[exits, None] * d_unit[exits]
+    n_out = np.where((np.sum(n[exits] * d_unit[exits], axis=1) > 0)[:, None], n[exits], -n[exits])
+    surface = p_exit + 1e-9 * np.maximum(1, np.abs(p_exit)) * n_out
+    out_dirs = rng.normal(size=(len(surface), 3))
+    out_dirs = np.where((np.sum(out_dirs * n_out, axis=1) < 0)[:, None], -out_dirs, out_dirs)
+    origins = np.vstack([o_in, rng.uniform(-6, 6, (32, 3)), surface, surface])
+    dirs = np.vstack([d_in, rng.normal(size=(32, 3)), out_dirs, d_unit[exits]])
+    t_fast, shape_fast, n_fast = _core.intersect(native, origins, dirs, -1)
+    t, shape, n = _core.intersect(native, origins, dirs)
+    assert np.array_equal(shape_fast, shape)
+    assert np.array_equal(t_fast, t) and np.array_equal(n_fast, n)

@@ -84,6 +84,10 @@ public:
     // For such a shape: the ray's hit if its origin is inside (the exit, or none before
     // t_max), else nullopt (trace it through the BVH).
     std::optional<bool> intersect_from_inside(int shape, const Ray &ray, Intersection &its) const;
+    // The sphere or box that holds every other primitive (a fog box around the scene), or
+    // -1; set by build(). A ray that runs outside it can hit nothing.
+    int enclosure() const { return enclosure_ == kNoPrim ? -1 : prims_[enclosure_].shape; }
+    bool outside_enclosure(const Ray &ray) const { return enclosure_ != kNoPrim && moves_away_from_enclosure(ray); }
     Bounds bounds() const;
 
 private:
@@ -108,6 +112,9 @@ private:
     // Per shape: its primitive (into prims_) if it is a sphere or box empty inside, else kNoPrim.
     static constexpr uint32_t kNoPrim = ~0u;
     std::vector<uint32_t> solid_prim_;
+    uint32_t enclosure_ = kNoPrim;  // into prims_
+    bool holds(uint32_t solid, const Primitive &p) const;
+    bool moves_away_from_enclosure(const Ray &ray) const;
 
     Bounds primitive_bounds(const Primitive &p) const;
     bool overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const;

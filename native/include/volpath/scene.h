@@ -64,12 +64,17 @@ struct Scene {
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
     // The same for a ray travelling in `medium` (-1: none): from inside the medium's
     // container, with no traversal (see medium_container).
+    // Outside the scene's enclosure (Geometry::enclosure), nothing to hit: no traversal.
     bool intersect(const Ray &ray, Intersection &its, int medium) const {
         if (medium >= 0 && medium_container[size_t(medium)] >= 0) {
             if (const auto hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its)) return *hit;
         }
+        if (medium != enclosed_medium && geometry.outside_enclosure(ray)) return false;
         return geometry.intersect(ray, its);
     }
+    // The medium inside the enclosure's interface, where rays need not test for leaving it
+    // (-2: none). Set by build().
+    int enclosed_medium = -2;
     // Per medium: the shape that holds it, if that is the only shape whose interface names
     // the medium (as its interior) and it is empty inside (Geometry::empty_inside); else -1.
     // Set by build().

@@ -116,6 +116,16 @@ void Geometry::build() {
         inner.lo = bounds[i].lo + margin, inner.hi = bounds[i].hi - margin;
         if (!overlaps_another(inner, i, bounds)) solid_prim_[size_t(prims_[i].shape)] = i;
     }
+    // The enclosure: the largest sphere or box, if it holds all the rest.
+    enclosure_ = kNoPrim;
+    for (uint32_t i = 0; i < prims_.size(); ++i) {
+        if (shapes[prims_[i].shape].kind != ShapeGeometry::Kind::Mesh &&
+            (enclosure_ == kNoPrim || bounds[i].surface_area() > bounds[enclosure_].surface_area()))
+            enclosure_ = i;
+    }
+    for (uint32_t i = 0; i < prims_.size() && enclosure_ != kNoPrim; ++i) {
+        if (i != enclosure_ && !holds(enclosure_, prims_[i])) enclosure_ = kNoPrim;
+    }
     vertices_.assign(prims_.size(), {});
     kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
     for (size_t i = 0; i < prims_.size(); ++i) {
@@ -125,6 +135,56 @@ void Geometry::build() {
         const TriangleMesh &m = meshes[g.index];
         for (int k = 0; k < 3; ++k) vertices_[i][k] = m.positions[m.triangles[prims_[i].index][k]];
     }
+}
+
+// Whether the sphere or box `solid` (into prims_) holds all of primitive p: its points
+// (a triangle's vertices, a box's corners, a sphere's bounding corners) lie inside, and
+// the solid is convex.
+bool Geometry::holds(uint32_t solid, const Primitive &p) const {
+    const ShapeGeometry &g = shapes[prims_[solid].shape];
+    auto inside = [&](const Vec3 &q) {
+        if (g.kind == ShapeGeometry::Kind::Sphere)
+            return length(q - spheres[g.index].center) <= spheres[g.index].radius;
+        const Vec3 local = boxes[g.index].to_local.point(q);
+        return max_component(abs(local)) <= 1;
+    };
+    const ShapeGeometry &s = shapes[p.shape];
+    if (s.kind == ShapeGeometry::Kind::Mesh) {
+        const TriangleMesh &m = meshes[s.index];
+        for (uint32_t v : m.triangles[p.index])
+            if (!inside(m.positions[v])) return false;
+        return true;
+    }
+    const Bounds b = s.kind == ShapeGeometry::Kind::Sphere ? primitive_bounds(p) : Bounds{};
+    for (int k = 0; k < 8; ++k) {
+        const Vec3 corner = s.kind == ShapeGeometry::Kind::Box
+                                ? boxes[s.index].to_world.point({k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0})
+                                : Vec3{k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z};
+        if (!inside(corner)) return false;
+    }
+    return true;
+}
+
+// Sufficient, and cheap (no division): the origin is outside the sphere or past one of the
+// box's faces, and the ray moves away from it, as rays leaving the enclosure do.
+bool Geometry::moves_away_from_enclosure(const Ray &ray) const {
+    const ShapeGeometry &g = shapes[prims_[enclosure_].shape];
+    if (g.kind == ShapeGeometry::Kind::Sphere) {
+        const Sphere &sp = spheres[g.index];
+        const Vec3 v = ray.o - sp.center;
+        const Real away = dot(v, ray.d), r2 = length_squared(v) - sp.radius * sp.radius;
+        return away >= 0 && r2 >= 0 && (away > 0 || r2 > 0);
+    }
+    const Box &box = boxes[g.index];
+    const bool aligned = box.aligned_bounds.valid();
+    const Vec3 o = aligned ? ray.o : box.to_local.point(ray.o), d = aligned ? ray.d : box.to_local.vector(ray.d);
+    const Vec3 lo = aligned ? box.aligned_bounds.lo : Vec3(-1.0), hi = aligned ? box.aligned_bounds.hi : Vec3(1.0);
+    // (Not a ray in a face's plane, which could meet what lies on the face.)
+    for (int a = 0; a < 3; ++a)
+        if ((o[a] >= hi[a] && d[a] >= 0 && (o[a] > hi[a] || d[a] > 0)) ||
+            (o[a] <= lo[a] && d[a] <= 0 && (o[a] < lo[a] || d[a] < 0)))
+            return true;
+    return false;
 }
 
 // Whether any primitive but `self` has bounds overlapping `box` (open intervals): the BVH's

@@ -98,6 +98,8 @@ void Scene::build() {
     for (size_t m = 0; m < media.size(); ++m) {
         if (interfaces[m] != 1) medium_container[m] = -1;
     }
+    const int enclosure = geometry.enclosure();
+    enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
     for (Light &l : lights) prepare_light(l, geometry);
     sun.reset();
     has_environment = false;
