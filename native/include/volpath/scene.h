@@ -62,9 +62,9 @@ struct Scene {
     // among all lights.
     Real light_select_pdf(int light, bool mis) const;
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
-    // The same for a ray travelling in `medium` (-1: none): from inside the medium's
-    // container, with no traversal (see medium_container).
-    // Outside the scene's enclosure (Geometry::enclosure), nothing to hit: no traversal.
+    // The same for a ray travelling in `medium` (-1: none), with no traversal from inside
+    // the medium's container (see medium_container) or outside the scene's enclosure
+    // (Geometry::enclosure), where there is nothing to hit.
     bool intersect(const Ray &ray, Intersection &its, int medium) const {
         if (medium >= 0 && medium_container[size_t(medium)] >= 0) {
             if (const auto hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its)) return *hit;

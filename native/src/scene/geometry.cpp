@@ -87,6 +87,7 @@ void Geometry::build() {
     prims_.clear();
     nodes_.clear();
     solid_prim_.assign(shapes.size(), kNoPrim);
+    enclosure_ = kNoPrim;
     for (int s = 0; s < int(shapes.size()); ++s) {
         if (shapes[s].kind != ShapeGeometry::Kind::Mesh) {
             prims_.push_back({s, 0});
@@ -117,7 +118,6 @@ void Geometry::build() {
         if (!overlaps_another(inner, i, bounds)) solid_prim_[size_t(prims_[i].shape)] = i;
     }
     // The enclosure: the largest sphere or box, if it holds all the rest.
-    enclosure_ = kNoPrim;
     for (uint32_t i = 0; i < prims_.size(); ++i) {
         if (shapes[prims_[i].shape].kind != ShapeGeometry::Kind::Mesh &&
             (enclosure_ == kNoPrim || bounds[i].surface_area() > bounds[enclosure_].surface_area()))
