@@ -33,11 +33,16 @@ bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d,
 }
 
 namespace {
+// Corner k (its bits pick the x, y, z side) of a box in world space, and of bounds.
+Vec3 box_corner(const Box &box, int k) {
+    return box.to_world.point({k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0});
+}
+Vec3 bounds_corner(const Bounds &b, int k) { return {k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z}; }
+
 // The world bounds of a box: its eight corners'.
 Bounds corner_bounds(const Box &box) {
     Bounds b;
-    for (int corner = 0; corner < 8; ++corner)
-        b.extend(box.to_world.point({corner & 1 ? 1.0 : -1.0, corner & 2 ? 1.0 : -1.0, corner & 4 ? 1.0 : -1.0}));
+    for (int corner = 0; corner < 8; ++corner) b.extend(box_corner(box, corner));
     return b;
 }
 }  // namespace
@@ -155,13 +160,9 @@ bool Geometry::holds(uint32_t solid, const Primitive &p) const {
             if (!inside(m.positions[v])) return false;
         return true;
     }
-    const Bounds b = s.kind == ShapeGeometry::Kind::Sphere ? primitive_bounds(p) : Bounds{};
-    for (int k = 0; k < 8; ++k) {
-        const Vec3 corner = s.kind == ShapeGeometry::Kind::Box
-                                ? boxes[s.index].to_world.point({k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0})
-                                : Vec3{k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z};
-        if (!inside(corner)) return false;
-    }
+    const Bounds b = primitive_bounds(p);
+    for (int k = 0; k < 8; ++k)
+        if (!inside(s.kind == ShapeGeometry::Kind::Box ? box_corner(boxes[s.index], k) : bounds_corner(b, k))) return false;
     return true;
 }
 
