@@ -124,4 +124,27 @@ private:
     uint64_t state_ = 0, inc_ = 1;
 };
 
+// One uniform spent on a run of choices, each made with its own probability p: a choice
+// not made leaves (u - p) / (1 - p), uniform again and independent of it, for the next
+// (the remaining fraction, as pbrt's SampleDiscrete reuses it). The first number's
+// stratification so carries through the run. Each remap coarsens u's 2^-32 grain by
+// 1 / (1 - p); past 2^10 (a grain of 2^-22) the next choice draws a fresh number.
+class ChoiceChain {
+public:
+    bool choose(Real p, Sampler &sampler) {
+        if (u_ < 0) u_ = sampler.next_1d(), coarsening_ = 1;
+        if (u_ < p) {
+            u_ = -1;
+            return true;
+        }
+        u_ = (u_ - p) / (1 - p);
+        coarsening_ /= 1 - p;
+        if (!(coarsening_ <= 1024) || !(u_ < 1)) u_ = -1;
+        return false;
+    }
+
+private:
+    Real u_ = -1, coarsening_ = 1;
+};
+
 }  // namespace volpath
