@@ -423,6 +423,22 @@ PYBIND11_MODULE(_core, m) {
     }, py::arg("seed"), py::arg("pixel"), py::arg("samples"), py::arg("dimensions"), py::arg("low_discrepancy"),
        py::arg("two_d"), py::arg("split_after") = -1);
 
+    // How often a ChoiceChain over `probabilities` makes its first choice at each of them
+    // (the last count: none made), one chain per pixel sample, for its chi-square test.
+    m.def("choice_chain_counts", [](const std::vector<double> &probabilities, uint64_t seed, int pixels,
+                                    int samples, bool low_discrepancy) {
+        std::vector<int64_t> counts(probabilities.size() + 1, 0);
+        for (int pixel = 0; pixel < pixels; ++pixel)
+            for (int i = 0; i < samples; ++i) {
+                Sampler sampler(seed, uint64_t(pixel), uint64_t(i), low_discrepancy);
+                ChoiceChain chain;
+                size_t k = 0;
+                while (k < probabilities.size() && !chain.choose(probabilities[k], sampler)) ++k;
+                ++counts[k];
+            }
+        return counts;
+    }, py::arg("probabilities"), py::arg("seed"), py::arg("pixels"), py::arg("samples"), py::arg("low_discrepancy"));
+
     // Sampler access for the statistical tests (chi-square against the pdfs).
     m.def("phase_sample", [](double g, const DoubleArray &u) {
         const size_t n = size_t(u.shape(0));

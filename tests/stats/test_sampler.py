@@ -46,6 +46,25 @@ def test_uniform_and_independent_across_pixels(low_discrepancy):
     assert v.min() >= 0 and v.max() < 1
 
 
+@pytest.mark.parametrize("low_discrepancy", [True, False])
+def test_a_chain_of_choices_from_one_uniform_keeps_their_probabilities(low_discrepancy):
+    """ChoiceChain (delta tracking's real-or-null choices): the first choice made falls on
+    the k-th of a run with probability p_k times the product of (1 - p_j) before it.
+    A run of 60 takes the chain past a redraw (each remap coarsens u by 1 / (1 - p), and
+    1 / P(no choice) > 2^10). Chi-square over 10^5 chains, p > 1e-4 (a false alarm about
+    once in 10^4 runs); a remap that kept u unchanged fails at p ~ 0."""
+    rng = np.random.default_rng(4)
+    probabilities = np.concatenate([[0.3, 0.0, 0.5], rng.uniform(0.08, 0.12, 57)])
+    counts = np.array(_core.choice_chain_counts(list(probabilities), 7, 3125, 32, low_discrepancy))
+    survive = np.concatenate([[1.0], np.cumprod(1 - probabilities)])
+    assert 1 / survive[-1] > 2 ** 10
+    expected = np.append(probabilities * survive[:-1], survive[-1]) * counts.sum()
+    assert counts[1] == 0  # never made with probability 0
+    keep = expected > 0
+    assert expected[keep].min() > 5  # chi-square's approximation holds in every bin
+    assert stats.chisquare(counts[keep], expected[keep]).pvalue > 1e-4
+
+
 def test_seeds_give_independent_scrambles():
     a = _core.sampler_values(1, 0, 16, 4, True, True)
     b = _core.sampler_values(2, 0, 16, 4, True, True)

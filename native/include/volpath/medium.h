@@ -255,16 +255,18 @@ Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max);
 // caller weights by that probability and covers the no-collision case separately).
 // The optical depth to the next collision is carried across pieces (the exponential
 // distribution is memoryless, so this equals resampling at each piece).
+// The first distance takes the sampler's next dimension if `stratified`, every later one
+// an independent number (Sampler::independent_1d: their count varies).
 template <typename Callback>
 Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel,
-                      Sampler &rng, Callback &&callback, Real forced_probability = 0) {
+                      Sampler &rng, Callback &&callback, Real forced_probability = 0, bool stratified = true) {
     MajorantIterator pieces(medium, ray, t_max);
     MajorantSegment seg;
     // T_maj accumulates across pieces until the next tentative collision. In the sampling
     // channel it is exp(-tau) there, which is 1 - u by construction: while the majorant is
     // grey, a collision needs no exponential.
     Spectrum T_maj(1.0);
-    Real u = rng.next_1d() * (forced_probability > 0 ? forced_probability : 1.0);
+    Real u = (stratified ? rng.next_1d() : rng.independent_1d()) * (forced_probability > 0 ? forced_probability : 1.0);
     Real tau = -std::log1p(-u);
     while (pieces.next(seg)) {
         const Real sigma_c = seg.sigma_maj[channel];
@@ -281,7 +283,7 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
             const Vec3 p = ray.at(t);
             if (!callback(p, t, medium_properties(medium, p), seg.sigma_maj, T_maj)) return Spectrum(1.0);
             T_maj = Spectrum(1.0);
-            u = rng.next_1d();
+            u = rng.independent_1d();
             tau = -std::log1p(-u);
         }
     }

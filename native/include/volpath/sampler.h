@@ -93,6 +93,12 @@ public:
         const uint64_t h = dimension_hash();
         return owen_scramble(laine_karras(reversed_index_, uint32_t(h)), uint32_t(h >> 32)) * 0x1p-32;
     }
+    // A number outside the dimensions, for draws whose count varies from sample to sample
+    // (a shadow ray's, a flight's tentative collisions after the first): drawn from the
+    // sequence, they would shift the path's later decisions onto other dimensions in each
+    // sample, which then no longer form one stratified set. Measured on the heterogeneous
+    // cube (d): 4-7 % lower error at equal spp than with every draw from the sequence.
+    Real independent_1d() { return next_u32() * 0x1p-32; }
     Vec2 next_2d() {
         if (!ld_ || dimension_ >= kLowDiscrepancyDimensions) {
             const Real a = next_1d();
@@ -128,11 +134,16 @@ private:
 // not made leaves (u - p) / (1 - p), uniform again and independent of it, for the next
 // (the remaining fraction, as pbrt's SampleDiscrete reuses it). The first number's
 // stratification so carries through the run. Each remap coarsens u's 2^-32 grain by
-// 1 / (1 - p); past 2^10 (a grain of 2^-22) the next choice draws a fresh number.
+// 1 / (1 - p); past 2^10 (a grain of 2^-22) the next choice draws a fresh, independent
+// number (the first is the sampler's next dimension).
 class ChoiceChain {
 public:
     bool choose(Real p, Sampler &sampler) {
-        if (u_ < 0) u_ = sampler.next_1d(), coarsening_ = 1;
+        if (u_ < 0) {
+            u_ = drawn_ ? sampler.independent_1d() : sampler.next_1d();
+            coarsening_ = 1;
+            drawn_ = true;
+        }
         if (u_ < p) {
             u_ = -1;
             return true;
@@ -145,6 +156,7 @@ public:
 
 private:
     Real u_ = -1, coarsening_ = 1;
+    bool drawn_ = false;
 };
 
 }  // namespace volpath

@@ -281,11 +281,11 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                         // Russian roulette on a transmittance estimate that got small.
                         const Spectrum Tr = T_ray / average(r_l + r_u);
                         if (max_component(Tr) < 0.05) {
-                            if (sampler.next_1d() < 0.75) T_ray = Spectrum(0.0);
+                            if (sampler.independent_1d() < 0.75) T_ray = Spectrum(0.0);
                             else T_ray /= 0.25;
                         }
                         return !is_black(T_ray);
-                    });
+                    }, /*forced_probability=*/0, /*stratified=*/false);
                 const Real pdf = T_maj[channel];
                 if (!(pdf > 0)) return Spectrum(0.0);
                 T_ray *= T_maj / pdf;
@@ -303,7 +303,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         ray = spawn_ray(its.p, its.n, ray.d, remaining);
         // Russian roulette before tracing on, where the transmittance so far is small.
         if (const Real T_max = max_component(T_ray); T_max < kShadowRouletteT) [[unlikely]] {
-            if (!(sampler.next_1d() * kShadowRouletteT < T_max)) return Spectrum(0.0);
+            if (!(sampler.independent_1d() * kShadowRouletteT < T_max)) return Spectrum(0.0);
             T_ray *= kShadowRouletteT / T_max;
         }
     }
