@@ -78,13 +78,24 @@ def chi2_pooled(observed, expected, min_expected=5.0):
     return float(chi2.sf(stat, dof))
 
 
-def render_batches(render, scene, batches, block=1, **kwargs):
-    """Render `batches` independent images (different seeds), average them over
+# The standard errors come from the spread between batches, so a difference over them
+# follows Student's t with (batches - 1) degrees of freedom, not the normal law: P(|t| > 5)
+# is 1.5 % with 4 batches, 0.4 % with 6, 1.6e-4 with 16 (normal: 5.7e-7). Fewer batches
+# asked for are spread over this many, with the same samples in all.
+MIN_BATCHES = 16
+
+
+def render_batches(render, scene, batches, block=1, spp=None, **kwargs):
+    """Render the samples of `batches` images of `spp` samples each (default: the scene's)
+    as at least MIN_BATCHES independent images (different seeds), average them over
     block x block pixel blocks, and return (mean, standard error of the mean): the
     error is estimated from the spread between the independent renders."""
-    images = np.stack([block_means(np.asarray(render(scene, seed=1000 + i, **kwargs), np.float64), block)
-                       for i in range(batches)])
-    return images.mean(axis=0), images.std(axis=0, ddof=1) / np.sqrt(batches)
+    spp = scene.spp if spp is None else spp
+    n = max(batches, MIN_BATCHES)
+    per_batch = max(1, -(-batches * spp // n))
+    images = np.stack([block_means(np.asarray(render(scene, seed=1000 + i, spp=per_batch, **kwargs), np.float64), block)
+                       for i in range(n)])
+    return images.mean(axis=0), images.std(axis=0, ddof=1) / np.sqrt(n)
 
 
 def block_means(image, block):

@@ -9,7 +9,7 @@ from volpath import _core
 from volpath.scene import ATMOSPHERE_PRESETS, rayleigh_coefficient
 from volpath.render import TRACERS
 from volpath.spectral import pass_wavelengths, white
-from volpath.testing import chi2_directions, max_z, render_batches
+from volpath.testing import MIN_BATCHES, chi2_directions, max_z, render_batches
 
 import scenes as S
 
@@ -166,7 +166,7 @@ def test_single_scattering_at_the_zenith(flight):
     mean, se = mean.reshape(3), se.reshape(3)
     if flight == "tracking":
         # Free flight finds a real collision in only ~5-15 % of the samples, so the noise is
-        # estimated from 8 independent batches of 16 x 16384 samples: 5 standard errors
+        # estimated from 16 independent batches of 16 x 8192 samples: 5 standard errors
         # (about 1.5 %) for each channel.
         assert np.all(np.abs(mean - expected) < 5 * se), (mean, expected, se)
         assert np.all(se / expected < 0.006)
@@ -264,18 +264,15 @@ def test_tabulated_and_ratio_tracked_sun_agree():
     """sun_transmittance="tracking" (unbiased: delta tracking and ratio tracking throughout),
     "quadrature" and the default "table" (both with the guided free flight) render the same
     sky (z-tests, 5 s.e.: the table's and the quadrature's errors, T within 1e-3, are far
-    below the noise of these renders); tracking is the noisiest at 5 degrees. 16 batches:
-    each standard error is estimated from the batches' spread, so |z| follows Student's t
-    with 15 degrees of freedom, P(|t| > 5) = 1.6e-4, about 0.4 % over the 24 comparisons
-    (with 6 batches, t with 5 degrees: 10 %)."""
+    below the noise of these renders); tracking is the noisiest at 5 degrees."""
     from volpath.testing import render_batches
 
     res = {}
     for method in ("tracking", "quadrature", "table"):
         scene = air_scene(f'<string name="sun_transmittance" value="{method}"/>', camera_origin="0, 2, 0",
-                          target="0, 2.2, -1", res=4, fov=40, spp=24,
+                          target="0, 2.2, -1", res=4, fov=40, spp=64,
                           lights=SUN_5_DEGREES_ASIDE)
-        res[method] = render_batches(volpath.render, scene, 16, block=2)
+        res[method] = render_batches(volpath.render, scene, 6, block=2)
     (a, sa) = res["tracking"]
     for method in ("quadrature", "table"):
         b, sb = res[method]
@@ -288,7 +285,7 @@ def test_tabulated_and_ratio_tracked_sun_agree():
 def test_spectral_mode_changes_only_what_depends_on_wavelength():
     """Air without coefficients, a grey sphere under the sun and a grey sky: every spectral
     pass sees the scene scaled by the white illuminant, which the white balance maps back to
-    1, so spectral and RGB agree (z-tests on 4x4 blocks over 6 batches). The passes share
+    1, so spectral and RGB agree (z-tests on 4x4 blocks over 16 batches). The passes share
     the samples out: pass k renders samples 2k, 2k + 1 of 8, and with those alone it equals
     RGB's render of the same samples to rounding."""
     def render(mode, spp):
@@ -306,7 +303,7 @@ def test_spectral_mode_changes_only_what_depends_on_wavelength():
     assert len(rgb_scene.passes) == 0 and len(spectral_scene.passes) == 4
     rgb, spectral = (render_batches(volpath.render, s, 6, block=4, spp=64) for s in (rgb_scene, spectral_scene))
     assert rgb[0].mean() > 0 and max_z(*rgb, *spectral) < 5
-    assert spectral_scene.last_render["spp"] == 64
+    assert spectral_scene.last_render["spp"] == 6 * 64 // MIN_BATCHES  # each batch's, all passes together
 
     def samples(native, first):  # two samples of every pixel, from sample index `first` on
         return _core.render(native, 2, 5, 0, TRACERS.index("null_scattering"), -1, 5, 1000, True,

@@ -55,7 +55,7 @@ def _grid(tmp_path):
 def test_equilibrium_radiance_is_le(tracer):
     scene = volpath.load_string(_deep_medium(_homogeneous()))
     mean, se = render_batches(volpath.render, scene, 4, block=4, tracer=tracer)
-    # 4 independent batches of 256 paths: 5 standard errors (of the 4-batch spread) plus 1 % of
+    # 4 x 256 paths as 16 independent batches: 5 standard errors (of their spread) plus 1 % of
     # Le for the Russian roulette and depth tails, which are unbiased but heavy.
     assert np.all(np.abs(mean[0, 0] - LE) < 5 * se[0, 0] + 0.01 * LE), (mean, se)
     assert np.all(np.isfinite(mean))

@@ -57,7 +57,7 @@ def test_white_furnace_homogeneous(tracer):
     scene = volpath.load_string(xml)
     mean, se = render_batches(volpath.render, scene, 4, tracer=tracer)
     assert np.all(np.isfinite(mean))
-    # Pixel means over 4 batches x 32 spp; 5 standard errors of the whole-image mean.
+    # Pixel means over 4 x 32 spp (as 16 batches); 5 standard errors of the whole-image mean.
     image_mean = mean.mean(axis=(0, 1))
     image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
     assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)

@@ -1,10 +1,11 @@
 """Where the physics coincides, the tracers agree (z-tests on 4x4 pixel blocks).
 
-Each image is rendered as several independent batches; the standard error of every
-block mean is estimated from the spread between batches. With 4x4 blocks of a 16x16
-image there are 16 blocks x 3 channels = 48 comparisons per test; a threshold of 5
-standard errors keeps the family-wise false-alarm rate below 1e-4 (Sidak) while a
-bias of a few percent is caught.
+Each image is rendered as 16 independent batches (volpath.testing.render_batches); the
+standard error of every block mean is estimated from the spread between batches, so each
+z follows Student's t with 15 degrees of freedom. With 4x4 blocks of a 16x16 image there
+are 16 blocks x 3 channels = 48 comparisons per test; a threshold of 5 standard errors
+(P(|t| > 5) = 1.6e-4 each) keeps the family-wise false-alarm rate below 1 % while a bias
+of a few percent is caught.
 """
 
 import numpy as np
