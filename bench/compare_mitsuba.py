@@ -230,7 +230,7 @@ def main():
     ap.add_argument("--ladder", type=int, nargs="+", default=[1, 4, 16, 64, 256])
     ap.add_argument("--target-spp", type=int, default=64)
     ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
-    ap.add_argument("--out", help="write the Markdown table here (replacing the Mitsuba section)")
+    ap.add_argument("--out", help="write a new Markdown file here with this table (make bench appends the other benchmarks)")
     ap.add_argument("--repeats", type=int, default=1,
                     help="render each rung this many times and keep the fastest (for noisy machines)")
     ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
