@@ -88,14 +88,14 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
     rng = np.random.default_rng(3)
     data = rng.uniform(0.5, 3.0, (6, 6, 6, 3)).astype(np.float32)
     data[1, 4, 2] = (40.0, 30.0, 35.0)
+    write_vol(tmp_path / "g.vol", data)
 
     def scene(majorant_res):
-        write_vol(tmp_path / f"g{majorant_res}.vol", data)
         return volpath.load_string(S.scene(
             S.camera(res=16, spp=32), S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"),
             S.constant_env("0.3, 0.3, 0.4"), f"""
             <medium type="heterogeneous" id="m">
-                <volume type="gridvolume" name="sigma_t"><string name="filename" value="g{majorant_res}.vol"/>
+                <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
                     <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
                 <rgb name="albedo" value="0.9, 0.6, 0.95"/>
                 <integer name="majorant_resolution" value="{majorant_res}"/>

@@ -89,7 +89,7 @@ public:
     // dimensions are not correlated), then Owen-scrambles the Sobol point. With vdC =
     // reverse_bits, vdC(owen(i)) = laine_karras(reverse_bits(i)), which saves two reversals.
     Real next_1d() {
-        if (!ld_ || dimension_ >= kLowDiscrepancyDimensions) return next_u32() * 0x1p-32;
+        if (!ld_ || dimension_ >= kLowDiscrepancyDimensions) return independent_1d();
         const uint64_t h = dimension_hash();
         return owen_scramble(laine_karras(reversed_index_, uint32_t(h)), uint32_t(h >> 32)) * 0x1p-32;
     }
