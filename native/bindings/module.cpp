@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 
+#include "volpath/light_distances.h"
 #include "volpath/render.h"
 #include "volpath/sky_map.h"
 
@@ -465,6 +466,38 @@ PYBIND11_MODULE(_core, m) {
         }
         return py::make_tuple(t, pdf);
     });
+    // Distances drawn for a light of the scene on the segment [t0, t1] of o + t d through a
+    // homogeneous medium of extinction sigma_t (LightDistances): their count, the k-th one for
+    // each u, drawn in `channel`, as (t, per-channel density of all the segment's distances),
+    // t NaN where the draw fails; and that density at t.
+    m.def("light_distance_count", [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
+                                     Array3 sigma_t) {
+        return LightDistances(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1}, t1, vec(sigma_t)).count;
+    }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"), py::arg("sigma_t"));
+    m.def("light_distance_sample", [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
+                                      Array3 sigma_t, int channel, int k, const DoubleArray &u) {
+        const LightDistances distances(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1}, t1,
+                                       vec(sigma_t));
+        if (k < 0 || k >= distances.count) throw std::out_of_range("no such distance on this segment");
+        py::array_t<double> t(u.shape(0)), density({size_t(u.shape(0)), size_t(3)});
+        auto p = density.mutable_unchecked<2>();
+        for (py::ssize_t i = 0; i < u.shape(0); ++i) {
+            Real ti;
+            const bool ok = distances.sample(k, u.at(i), channel, ti);
+            const Spectrum di = ok ? distances.density(ti) : Spectrum(0.0);
+            t.mutable_at(i) = ok ? ti : std::numeric_limits<Real>::quiet_NaN();
+            p(i, 0) = di.x, p(i, 1) = di.y, p(i, 2) = di.z;
+        }
+        return py::make_tuple(t, density);
+    }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
+       py::arg("sigma_t"), py::arg("channel"), py::arg("k"), py::arg("u"));
+    m.def("light_distance_density", [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
+                                       Array3 sigma_t, double t) {
+        const Spectrum p = light_distance_density(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1},
+                                                  t1, vec(sigma_t), t);
+        return std::array<double, 3>{p.x, p.y, p.z};
+    }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
+       py::arg("sigma_t"), py::arg("t"));
     // Majorant pieces of a medium along a ray: (t0, t1, sigma_maj) rows.
     m.def("majorant_segments", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
         MajorantIterator pieces(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);

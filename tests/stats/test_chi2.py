@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import volpath
 from volpath import _core
-from volpath.testing import chi2_directions
+from volpath.testing import chi2_directions, chi2_pooled
 
 import scenes as S
 
@@ -112,3 +112,74 @@ def test_equiangular_distances(c, o, d, t0, t1):
     assert np.allclose(pdf * r2, np.mean(pdf * r2), rtol=1e-9)
     with pytest.raises(ValueError):
         _core.equiangular_sample(c, c, d, t0, t1, u)  # the line passes through the light
+
+
+# Each light with where it is seen from: (xml, position or None, direction toward it or None).
+POINT_NEAR = (S.point_light("0.05, 0, 1", "1, 1, 1"), (0.05, 0, 1), None)
+POINT_FAR = (S.point_light("0, 3, 0", "1, 1, 1"), (0, 3, 0), None)
+AREA = (S.area_light_above(y=3, size=1.0), (0, 3, 0), None)
+SUN_OBLIQUE = ('<emitter type="directional"><vector name="direction" value="-0.6, 0, -0.8"/></emitter>', None, (0.6, 0, 0.8))
+
+
+def _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, t):
+    """The densities the integrator describes: an exponential of rate sigma_t (1 - cos)
+    toward the light (per channel), and where the light is near, an equiangular one."""
+    _, position, toward = light
+    o, d = np.asarray(o, float), np.asarray(d, float) / np.linalg.norm(d)
+    if position is not None:
+        toward = np.asarray(position) - (o + t0 * d)
+    toward = np.asarray(toward, float) / np.linalg.norm(toward)
+    rate = np.asarray(sigma_t, float) * max(1 - np.dot(d, toward), 1e-3)
+    exponential = rate * np.exp(-rate * (t - t0)) / -np.expm1(-rate * (t1 - t0))
+    if position is None:
+        return exponential, 0.0
+    c = np.asarray(position, float)
+    t_closest = np.dot(c - o, d)
+    D = np.linalg.norm(c - o - t_closest * d)
+    if D == 0:  # the segment's line passes through the light: no equiangular density
+        return exponential, 0.0
+    theta = np.arctan2(np.array([t0, t1]) - t_closest, D)
+    return exponential, D / ((theta[1] - theta[0]) * (D * D + (t - t_closest) ** 2))
+
+
+@pytest.mark.parametrize("light, o, d, t0, t1, sigma_t, channel, near", [
+    (POINT_FAR, (0, 0, 0), (0.6, 0.8, 0), 0.0, 1.5, (2, 1, 0.5), 0, False),   # toward the light
+    (POINT_FAR, (0, 0, 0), (0.6, 0.8, 0), 0.0, 1.5, (2, 1, 0.5), 2, False),
+    (POINT_FAR, (0, 0.5, 0), (0, -1, 0), 0.1, 4.0, (3, 3, 3), 0, False),      # away from it
+    (POINT_NEAR, (0, 0, 0), (0, 0, 1), 0.0, 3.0, (5, 5, 5), 0, True),         # past it: two distances
+    (POINT_NEAR, (0, 0, 0), (0, 0, 1), 0.0, np.inf, (0.5, 1, 2), 1, True),    # unbounded
+    (SUN_OBLIQUE, (0, 0, 0), (0, 0, 1), 0.0, np.inf, (1, 0.5, 0.25), 1, False),
+    (AREA, (0, 0, 0), (0.3, 0.9, 0.3), 0.0, 2.0, (6, 6, 6), 0, False)])
+def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
+    """Distances drawn for a light along a medium segment: one exponential toward the light,
+    and an equiangular one where the light is near. Each follows its density (chi-square
+    over 40 bins of about equal count, the exponential drawn in `channel`); the density the
+    integrator weighs them by is the sum of the two, checked per channel at the samples;
+    and it integrates to the number of distances over the segment in every channel (the
+    MIS over channels uses all three)."""
+    from scipy.integrate import quad
+
+    scene = _light_scene(light[0]).native
+    count = _core.light_distance_count(scene, 0, o, d, t0, t1, sigma_t)
+    assert count == (2 if near else 1)
+    peak = float(np.dot(np.asarray(light[1] or (0, 0, 0)) - o, np.asarray(d) / np.linalg.norm(d)))
+
+    def integral(f, a, b):
+        if near and a < peak < b:  # the equiangular peak as a break point
+            return quad(f, a, peak, limit=200)[0] + quad(f, peak, b, limit=200)[0]
+        return quad(f, a, b, limit=200)[0]
+
+    for k in range(count):
+        t, density = _core.light_distance_sample(scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1)[:, 0])
+        assert np.all(np.isfinite(t)) and np.all((t >= t0) & (t <= t1))
+        expected = [_expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x) for x in t[:500]]
+        assert np.allclose(density[:500], [e + (q if near else 0) for e, q in expected], rtol=1e-9)
+        own = lambda x: _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)[k][channel] if k == 0 else \
+            _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)[1]
+        t_ref, _ = _core.light_distance_sample(scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1, seed=2)[:, 0])
+        edges = np.concatenate([[t0], np.quantile(t_ref, np.linspace(0, 1, 41)[1:-1]), [t1]])
+        expected_counts = np.array([integral(own, a, b) for a, b in zip(edges[:-1], edges[1:])]) * N
+        assert chi2_pooled(np.histogram(t, edges)[0], expected_counts) > P_MIN
+    for c in range(3):
+        total = integral(lambda x: _core.light_distance_density(scene, 0, o, d, t0, t1, sigma_t, x)[c], t0, t1)
+        assert total == pytest.approx(count, abs=1e-4)

@@ -47,6 +47,10 @@ struct Scene {
     std::vector<int> segment_lights;
     // The lights NEE chooses from under MIS: all but constant environments (see add_light).
     std::vector<int> mis_nee_lights;
+    // The lights NEE chooses from at a free-flight collision in a homogeneous medium, where
+    // every segment estimates the segment lights by a distance of its own: the environments
+    // among NEE's lights, [0] without MIS, [1] under MIS.
+    std::vector<int> collision_nee_lights[2];
     Camera camera;
     bool built = false;
 
@@ -61,6 +65,8 @@ struct Scene {
     // NEE's probability of choosing `light`: uniform among mis_nee_lights under MIS, else
     // among all lights.
     Real light_select_pdf(int light, bool mis) const;
+    // The same at a collision that chooses among collision_nee_lights.
+    Real collision_light_select_pdf(int light, bool mis) const;
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
     // The same for a ray travelling in `medium` (-1: none), with no traversal from inside
     // the medium's container (see medium_container) or outside the scene's enclosure

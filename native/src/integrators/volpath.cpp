@@ -2,6 +2,7 @@
 #include <stdexcept>
 
 #include "volpath/integrator.h"
+#include "volpath/light_distances.h"
 #include "volpath/sky_map.h"
 
 namespace volpath {
@@ -124,10 +125,13 @@ bool leads_to_suns_only(const Scene &scene, const Light &light) {
 }
 
 // A scattering vertex in a homogeneous medium segment, drawn by one of two distance
-// strategies: free flight, or a distance drawn for one light (sample_light_distance). Each
-// strategy estimates that light by NEE from its vertices, and free flight's vertex also
-// finds emitters by phase sampling; the power heuristic combines all three (multi-sample
-// MIS), with the densities averaged over channels.
+// strategies: free flight, or a distance drawn for one light (LightDistances).
+// In homogeneous media each light has one NEE strategy: every segment that free flight
+// crosses estimates a segment light from a distance drawn for it, whether or not free
+// flight then collides there, and free flight's collisions estimate the environments
+// (Scene::collision_nee_lights). Free flight's vertex also finds emitters by phase
+// sampling; the power heuristic combines the two ways to each light, with the densities
+// averaged over channels.
 struct SegmentVertex {
     Ray ray;
     Real t_end;                 // the segment is [ray.t_min, t_end]
@@ -136,93 +140,38 @@ struct SegmentVertex {
     int light = -1;             // >= 0: drawn for this light, else by free flight
 };
 
-// Lights with a distance strategy of their own (Scene::segment_lights): lights at a point,
-// and area lights through their centre, by equiangular sampling (the inverse-square
-// falloff); directional lights and suns by the segment's transmittance truncated to the
-// segment (a collision that free flight in thin media seldom makes). Not environments:
-// seen through thin smoke, free flight's estimate of what passes through and of what
-// scatters in are anticorrelated (one or the other), and a second strategy for the
-// in-scattering alone was measured 2-7x noisier under a constant environment.
-// Only on segments of optical depth (channel average) up to kMaxLightDistanceDepth: on
-// thicker ones free flight collides near the start anyway, and the light's distances land
-// mostly where little light arrives, so the extra NEE costs more than it saves. Measured
-// at equal error on the dense sphere under an area light (c): 1.3x better with the limit
-// than without, 1.08x better than without light distances; (b) and (e) unchanged (their
-// segments are thinner). Unbounded segments take free flight alone.
-constexpr Real kMaxLightDistanceDepth = 2;
-
 Real segment_light_select_pdf(const Scene &scene) { return 1.0 / Real(scene.segment_lights.size()); }
 
-// Where equiangular distances aim, for the lights that have one.
-const Vec3 *light_position(const Light &light) {
-    if (const auto *point = std::get_if<PointLight>(&light)) return &point->position;
-    if (const auto *area = std::get_if<AreaLight>(&light)) return &area->center;
-    return nullptr;
+// Free flight's rescaled density at a vertex drawn for a light, on the scale of the r_u of
+// the light's distance strategy: where phase sampling from that vertex starts.
+Spectrum free_flight_density(const SegmentVertex &v) {
+    const Spectrum T = exp(-v.sigma_t * (v.t - v.ray.t_min));
+    return v.r_start * v.sigma_t * T / v.pdf;
 }
 
-// Per-channel density of drawing t in [ray.t_min, t_end] for `light` (0 for environments).
-Spectrum light_distance_pdf(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t, Real t) {
-    if (const Vec3 *c = light_position(light))
-        return Spectrum(equiangular_pdf(equiangular(*c, ray.o, ray.d, ray.t_min, t_end), t));
-    if (std::holds_alternative<EnvironmentLight>(light)) return Spectrum(0.0);
-    const Real s = t - ray.t_min, length = t_end - ray.t_min;
-    auto truncated = [&](Real sigma) {
-        return sigma > 0 ? sigma * std::exp(-sigma * s) / -std::expm1(-sigma * length)
-                         : (std::isfinite(length) ? 1 / length : 0);
-    };
-    if (is_grey(sigma_t)) return Spectrum(truncated(sigma_t.x));
-    return {truncated(sigma_t.x), truncated(sigma_t.y), truncated(sigma_t.z)};
-}
-
-// Draws t for `light` in the path's channel and sets its per-channel density; false where
-// that density is not defined.
-bool sample_light_distance(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t, int channel,
-                           Real u, Real &t, Spectrum &pdf) {
-    const Real length = t_end - ray.t_min;
-    if (!(length > 0)) return false;
-    if (const Vec3 *c = light_position(light)) {
-        const Equiangular e = equiangular(*c, ray.o, ray.d, ray.t_min, t_end);
-        if (!is_valid(e)) return false;
-        t = sample_equiangular(e, u, ray.t_min, t_end);
-        pdf = Spectrum(equiangular_pdf(e, t));
-    } else {
-        const Real sigma = sigma_t[channel];
-        if (sigma > 0) t = ray.t_min + std::min(-std::log1p(u * std::expm1(-sigma * length)) / sigma, length);
-        else if (std::isfinite(length)) t = ray.t_min + u * length;
-        else return false;
-        pdf = light_distance_pdf(light, ray, t_end, sigma_t, t);
-    }
-    return pdf[channel] > 0;
-}
-
-// The other distance strategy's rescaled density for a vertex lit by `light`, on the
-// scale of the r_u of the vertex's own strategy, before choosing the light.
-Spectrum other_distance_strategy(const Scene &scene, const SegmentVertex &v, int light) {
-    if (v.light >= 0) {  // free flight collides at t with density sigma_t T
-        const Spectrum T = exp(-v.sigma_t * (v.t - v.ray.t_min));
-        return v.r_start * v.sigma_t * T / v.pdf;
-    }
-    return v.r_start * light_distance_pdf(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) / v.pdf;
-}
-
-// Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf),
+// Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf,
+// or as below),
 // sample a point on it and trace a shadow ray through index-matched boundaries and media.
 // `eval(d)` returns the scattering value f (times the cosine, for surfaces), `pdf(d)` the
 // density of sampling d per channel: asked for only where phase or BSDF sampling could
 // find the light too (MIS). r_p is the path's rescaled unidirectional pdf.
-// `vertex`: the point is a SegmentVertex (its light is given if drawn toward it); the
-// weight then counts both distance strategies, and phase sampling from free flight's.
+// `vertex`: the point is a SegmentVertex: drawn for its light, or free flight's collision,
+// which chooses among Scene::collision_nee_lights (see SegmentVertex).
 template <typename Eval, typename Pdf>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
                        int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
                        Sampler &sampler, Eval &&eval, Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
-    const bool toward_light = vertex && vertex->light >= 0;
+    const bool toward_light = vertex && vertex->light >= 0, collision = vertex && !toward_light;
     int light = toward_light ? vertex->light : -1;
+    Real select = toward_light ? segment_light_select_pdf(scene) : 0;
     if (!toward_light) {
-        const int n = int(mis ? scene.mis_nee_lights.size() : scene.lights.size());
+        const std::vector<int> *choice =
+            collision ? &scene.collision_nee_lights[mis] : (mis ? &scene.mis_nee_lights : nullptr);
+        const int n = int(choice ? choice->size() : scene.lights.size());
         if (n == 0) return Spectrum(0.0);
         const int i = std::min(int(sampler.next_1d() * n), n - 1);
-        light = mis ? scene.mis_nee_lights[i] : i;
+        light = choice ? (*choice)[size_t(i)] : i;
+        select = 1.0 / Real(n);
     }
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
@@ -310,19 +259,12 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
 
     // Rays that leave guided air for nothing but suns never get there by phase sampling.
     if (left_guided_air && leads_to_suns_only(scene, scene.lights[light])) r_u = Spectrum(0.0);
-    // The other distance strategy's NEE crosses the same shadow ray (r_l's factors so far),
-    // and phase sampling starts from free flight's vertex. NEE and a distance strategy choose
-    // their light each among their own lights.
-    const Real select_nee = scene.light_select_pdf(light, mis);
-    const Real select_distance = vertex ? segment_light_select_pdf(scene) : 0.0;
-    const Real select_own = toward_light ? select_distance : select_nee;
-    const Real select_other = toward_light ? select_nee : select_distance;
-    const Spectrum r_other_vertex = vertex ? other_distance_strategy(scene, *vertex, light) : Spectrum(0.0);
-    const Spectrum r_other = r_l * r_other_vertex * (select_other * ls.pdf);
-    r_l *= r_p * (select_own * ls.pdf);
-    const Real r_scatter =
-        ls.delta || !mis || is_black(r_u) ? 0.0 : average(r_u * (toward_light ? r_other_vertex : r_p) * pdf(ls.d));
-    return beta * f * T_ray * ls.L * mis_over_a(average(r_l), average(r_other), r_scatter);
+    // Phase sampling would start from free flight's vertex.
+    r_l *= r_p * (select * ls.pdf);
+    const Real r_scatter = ls.delta || !mis || is_black(r_u)
+                               ? 0.0
+                               : average(r_u * (toward_light ? free_flight_density(*vertex) : r_p) * pdf(ls.d));
+    return beta * f * T_ray * ls.L * mis_over_a(average(r_l), r_scatter);
 }
 
 }  // namespace
@@ -394,13 +336,17 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             if (!feat.mis) {
                 L += beta * Le / average(r_u);
             } else {
+                // After a collision in a homogeneous medium, NEE finds segment lights from
+                // the segment's distance, environments from the collision (SegmentVertex).
                 Real r_light_distance = 0;
                 if (scattered_at) {
                     const SegmentVertex &v = *scattered_at;
-                    r_light_distance = average(r_ld * light_distance_pdf(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
+                    r_light_distance = average(r_ld * light_distance_density(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
                                                (segment_light_select_pdf(scene) * pdf_light_dir));
                 }
-                const Spectrum r_light = r_l * (scene.light_select_pdf(light, true) * pdf_light_dir);
+                const Real select = scattered_at ? scene.collision_light_select_pdf(light, true)
+                                                 : scene.light_select_pdf(light, true);
+                const Spectrum r_light = r_l * (select * pdf_light_dir);
                 L += beta * Le * mis_over_a(average(r_u), average(r_light), r_light_distance);
             }
         }
@@ -417,19 +363,24 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
     };
 
     // The segment lights of the homogeneous segment [ray.t_min, t_end] that free flight is
-    // about to sample: NEE from a distance drawn for one of them (SegmentVertex).
+    // about to sample: NEE from the distances drawn for one of them (SegmentVertex).
     auto segment_direct = [&](const Medium &m, const HomogeneousMedium &h, Real t_end) {
-        const Real u_light = sampler.next_1d(), u_t = sampler.next_1d();
         const int n = int(scene.segment_lights.size());
-        const int light = scene.segment_lights[std::min(int(u_light * n), n - 1)];
+        const int light = scene.segment_lights[std::min(int(sampler.next_1d() * n), n - 1)];
         const Spectrum sigma_t = h.sigma_a + h.sigma_s;
-        Real t;
-        Spectrum pdf;
-        if (!sample_light_distance(scene.lights[light], ray, t_end, sigma_t, channel, u_t, t, pdf)) return;
-        const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, pdf[channel], light};
-        const Vec3 p = ray.at(t);
-        const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / pdf[channel];
-        L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u * pdf / pdf[channel], &vertex);
+        if (!(t_end > ray.t_min)) return;
+        const LightDistances distances(scene.lights[light], ray, t_end, sigma_t);
+        for (int k = 0; k < distances.count; ++k) {
+            Real t;
+            // The second distance is drawn on some segments only: an independent number.
+            if (!distances.sample(k, k == 0 ? sampler.next_1d() : sampler.independent_1d(), channel, t)) continue;
+            const Spectrum density = distances.density(t);
+            if (!(density[channel] > 0)) continue;
+            const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, density[channel], light};
+            const Vec3 p = ray.at(t);
+            const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / density[channel];
+            L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u * density / density[channel], &vertex);
+        }
     };
 
     // A real scattering event at p in medium m, beta already weighted for reaching it:
@@ -441,7 +392,8 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         const bool models = map && map->models_light && scene.sun_shadowed_by_planets_alone && feat.nee;
         const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
         if (feat.nee) {
-            L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
+            if (!vertex || !scene.collision_nee_lights[feat.mis].empty())
+                L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
             // Nothing left that the path could find?
             if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
         }
@@ -619,8 +571,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             Real forced = 0;
             const bool pass_through = branch == Branch::PassThrough;
             const bool segment_nee = h && scatters && !pass_through && feat.nee && config.light_distances &&
-                                     !scene.segment_lights.empty() && !last_vertex() &&
-                                     average(h->sigma_a + h->sigma_s) * (t_end - ray.t_min) <= kMaxLightDistanceDepth;
+                                     !scene.segment_lights.empty() && !last_vertex();
             if (segment_nee) segment_direct(m, *h, t_end);
             const Spectrum r_start = r_u;
             if (branch != Branch::All) {

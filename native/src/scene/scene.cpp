@@ -1,5 +1,7 @@
 #include "volpath/scene.h"
 
+#include <algorithm>
+
 #include "volpath/sky_map.h"
 
 #include <sstream>
@@ -29,12 +31,21 @@ int Scene::add_light(const Light &l) {
     // shadow ray for nothing. Measured on bench (d) (a sun and a constant sky over a dense
     // cube), at equal work: 1.6x less squared error than choosing the sky half the time.
     if (!is_constant_environment(l)) mis_nee_lights.push_back(int(lights.size()) - 1);
+    if (std::holds_alternative<EnvironmentLight>(l)) {
+        collision_nee_lights[0].push_back(int(lights.size()) - 1);
+        if (!is_constant_environment(l)) collision_nee_lights[1].push_back(int(lights.size()) - 1);
+    }
     return int(lights.size()) - 1;
 }
 
 Real Scene::light_select_pdf(int light, bool mis) const {
     if (!mis) return lights.empty() ? 0.0 : 1.0 / Real(lights.size());
     return is_constant_environment(lights[light]) ? 0.0 : 1.0 / Real(mis_nee_lights.size());
+}
+
+Real Scene::collision_light_select_pdf(int light, bool mis) const {
+    const std::vector<int> &choice = collision_nee_lights[mis];
+    return std::find(choice.begin(), choice.end(), light) != choice.end() ? 1.0 / Real(choice.size()) : 0.0;
 }
 
 namespace {
