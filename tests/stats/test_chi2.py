@@ -174,8 +174,11 @@ def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
         assert np.all(np.isfinite(t)) and np.all((t >= t0) & (t <= t1))
         expected = [_expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x) for x in t[:500]]
         assert np.allclose(density[:500], [e + (q if near else 0) for e, q in expected], rtol=1e-9)
-        own = lambda x: _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)[k][channel] if k == 0 else \
-            _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)[1]
+
+        def own(x, k=k):  # the k-th distance's density: the exponential's in `channel`, or the equiangular
+            exponential, equiangular = _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)
+            return exponential[channel] if k == 0 else equiangular
+
         t_ref, _ = _core.light_distance_sample(scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1, seed=2)[:, 0])
         edges = np.concatenate([[t0], np.quantile(t_ref, np.linspace(0, 1, 41)[1:-1]), [t1]])
         expected_counts = np.array([integral(own, a, b) for a, b in zip(edges[:-1], edges[1:])]) * N
