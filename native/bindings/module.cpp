@@ -479,6 +479,7 @@ PYBIND11_MODULE(_core, m) {
         const LightDistances distances(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1}, t1,
                                        vec(sigma_t));
         if (k < 0 || k >= distances.count) throw std::out_of_range("no such distance on this segment");
+        if (channel < 0 || channel > 2) throw std::out_of_range("channel must be 0, 1 or 2");
         py::array_t<double> t(u.shape(0)), density({size_t(u.shape(0)), size_t(3)});
         auto p = density.mutable_unchecked<2>();
         for (py::ssize_t i = 0; i < u.shape(0); ++i) {

@@ -1,9 +1,8 @@
 #include "volpath/scene.h"
 
-#include <algorithm>
-
 #include "volpath/sky_map.h"
 
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
