@@ -470,14 +470,18 @@ PYBIND11_MODULE(_core, m) {
     // homogeneous medium of extinction sigma_t (LightDistances): their count, the k-th one for
     // each u, drawn in `channel`, as (t, per-channel density of all the segment's distances),
     // t NaN where the draw fails; and that density at t.
-    m.def("light_distance_count", [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
-                                     Array3 sigma_t) {
-        return LightDistances(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1}, t1, vec(sigma_t)).count;
+    auto light_distances = [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1, Array3 sigma_t) {
+        const Light &l = s.lights.at(size_t(light));
+        if (std::holds_alternative<EnvironmentLight>(l)) throw std::invalid_argument("environments have no distances");
+        return LightDistances(l, Ray{vec(o), normalize(vec(d)), t0, t1}, t1, vec(sigma_t));
+    };
+    m.def("light_distance_count", [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
+                                                    Array3 sigma_t) {
+        return light_distances(s, light, o, d, t0, t1, sigma_t).count;
     }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"), py::arg("sigma_t"));
-    m.def("light_distance_sample", [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
-                                      Array3 sigma_t, int channel, int k, const DoubleArray &u) {
-        const LightDistances distances(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1}, t1,
-                                       vec(sigma_t));
+    m.def("light_distance_sample", [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0,
+                                                     double t1, Array3 sigma_t, int channel, int k, const DoubleArray &u) {
+        const LightDistances distances = light_distances(s, light, o, d, t0, t1, sigma_t);
         if (k < 0 || k >= distances.count) throw std::out_of_range("no such distance on this segment");
         if (channel < 0 || channel > 2) throw std::out_of_range("channel must be 0, 1 or 2");
         py::array_t<double> t(u.shape(0)), density({size_t(u.shape(0)), size_t(3)});
@@ -492,10 +496,9 @@ PYBIND11_MODULE(_core, m) {
         return py::make_tuple(t, density);
     }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
        py::arg("sigma_t"), py::arg("channel"), py::arg("k"), py::arg("u"));
-    m.def("light_distance_density", [](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
-                                       Array3 sigma_t, double t) {
-        const Spectrum p = light_distance_density(s.lights.at(size_t(light)), Ray{vec(o), normalize(vec(d)), t0, t1},
-                                                  t1, vec(sigma_t), t);
+    m.def("light_distance_density", [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0,
+                                                      double t1, Array3 sigma_t, double t) {
+        const Spectrum p = light_distances(s, light, o, d, t0, t1, sigma_t).density(t);
         return std::array<double, 3>{p.x, p.y, p.z};
     }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
        py::arg("sigma_t"), py::arg("t"));

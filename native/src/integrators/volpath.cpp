@@ -149,8 +149,8 @@ Spectrum free_flight_density(const SegmentVertex &v) {
     return v.r_start * v.sigma_t * T / v.pdf;
 }
 
-// Next-event estimation from a scattering point: choose a light (Scene::light_select_pdf,
-// or as below),
+// Next-event estimation from a scattering point: choose a light (uniformly among
+// Scene::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
 // sample a point on it and trace a shadow ray through index-matched boundaries and media.
 // `eval(d)` returns the scattering value f (times the cosine, for surfaces), `pdf(d)` the
 // density of sampling d per channel: asked for only where phase or BSDF sampling could
