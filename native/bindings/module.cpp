@@ -502,16 +502,18 @@ PYBIND11_MODULE(_core, m) {
         return std::array<double, 3>{p.x, p.y, p.z};
     }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
        py::arg("sigma_t"), py::arg("t"));
-    // Majorant pieces of a medium along a ray: (t0, t1, sigma_maj) rows.
+    // Majorant pieces of a medium along a ray: (t0, t1, sigma_maj, sigma_min) rows.
     m.def("majorant_segments", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
         MajorantIterator pieces(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
-        std::vector<std::array<double, 5>> rows;
+        std::vector<std::array<double, 8>> rows;
         MajorantSegment g;
-        while (pieces.next(g)) rows.push_back({g.t0, g.t1, g.sigma_maj.x, g.sigma_maj.y, g.sigma_maj.z});
-        py::array_t<double> out({rows.size(), size_t(5)});
+        while (pieces.next(g))
+            rows.push_back({g.t0, g.t1, g.sigma_maj.x, g.sigma_maj.y, g.sigma_maj.z, g.sigma_min.x, g.sigma_min.y,
+                            g.sigma_min.z});
+        py::array_t<double> out({rows.size(), size_t(8)});
         auto r = out.mutable_unchecked<2>();
         for (size_t i = 0; i < rows.size(); ++i)
-            for (int j = 0; j < 5; ++j) r(i, j) = rows[i][j];
+            for (int j = 0; j < 8; ++j) r(i, j) = rows[i][j];
         return out;
     });
     m.def("medium_sigma_t", [](Scene &s, int medium, const DoubleArray &p) {
@@ -665,8 +667,9 @@ PYBIND11_MODULE(_core, m) {
         return Array3{tau.x, tau.y, tau.z};
     });
     // Mean of n ratio-tracking estimates per channel, each channel sampled with its own
-    // majorant, and the standard errors.
-    m.def("ratio_tracking", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int n, uint64_t seed) {
+    // majorant, and the standard errors; `residual`: residual ratio tracking.
+    m.def("ratio_tracking", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int n, uint64_t seed,
+                               bool residual) {
         const Medium &m = s.media.at(size_t(medium));
         const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
         Spectrum sum(0.0), sum2(0.0);
@@ -675,7 +678,7 @@ PYBIND11_MODULE(_core, m) {
             for (int c = 0; c < 3; ++c) {
                 for (int i = 0; i < n; ++i) {
                     Sampler rng(seed, uint64_t(c), uint64_t(i));
-                    const Real T = ratio_tracking(m, ray, t_max, c, rng)[c];
+                    const Real T = ratio_tracking(m, ray, t_max, c, rng, residual)[c];
                     sum[c] += T;
                     sum2[c] += T * T;
                 }
@@ -684,7 +687,8 @@ PYBIND11_MODULE(_core, m) {
         const Spectrum mean = sum / Real(n), var = clamp_zero(sum2 / Real(n) - mean * mean);
         return py::make_tuple(Array3{mean.x, mean.y, mean.z},
                               Array3{std::sqrt(var.x / n), std::sqrt(var.y / n), std::sqrt(var.z / n)});
-    });
+    }, py::arg("scene"), py::arg("medium"), py::arg("o"), py::arg("d"), py::arg("t_max"), py::arg("n"),
+       py::arg("seed"), py::arg("residual") = false);
     m.def("light_sample", [](Scene &s, int light, Array3 ref, const DoubleArray &u) {
         if (!s.built) s.build();
         if (light < 0 || light >= int(s.lights.size())) throw std::out_of_range("no such light");

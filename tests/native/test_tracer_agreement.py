@@ -82,18 +82,21 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
     one global majorant, set by a single hot voxel, each real collision follows a run of
     about ten null ones at varying probabilities, against a few under local majorants. A
     wrong remap biases the long runs (one that keeps u unchanged makes the cube's centre
-    6 % brighter under the global majorant: z = 20)."""
+    6 % brighter under the global majorant: z = 20). The sun's shadow rays take residual
+    ratio tracking against the local minorants, and plain ratio tracking under the global
+    bounds (an empty corner voxel makes the global minorant 0)."""
     from volpath.grids import write_vol
 
     rng = np.random.default_rng(3)
     data = rng.uniform(0.5, 3.0, (6, 6, 6, 3)).astype(np.float32)
     data[1, 4, 2] = (40.0, 30.0, 35.0)
+    data[0, 0, 0] = 0.0
     write_vol(tmp_path / "g.vol", data)
 
     def scene(majorant_res):
         return volpath.load_string(S.scene(
             S.camera(res=16, spp=32), S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"),
-            S.constant_env("0.3, 0.3, 0.4"), f"""
+            S.constant_env("0.3, 0.3, 0.4"), SUN, f"""
             <medium type="heterogeneous" id="m">
                 <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
                     <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>

