@@ -254,7 +254,8 @@ def main():
     if args.out:
         with open(args.out, "w") as f:
             f.write("# Benchmark results\n\nProduced by `make bench` (bench/compare_mitsuba.py); "
-                    "numbers are from one run on the machine named.\n\n" + text)
+                    "each section's numbers come from one run, not always the same one: this table names its\n"
+                    "machine and date, and later sections theirs where they were measured apart.\n\n" + text)
 
 
 if __name__ == "__main__":
