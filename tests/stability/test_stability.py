@@ -84,6 +84,28 @@ def test_grid_density_range(tmp_path, density):
         assert np.all(np.abs(m - 1) <= 5 * s + 1e-6)
 
 
+@pytest.mark.parametrize("density", [1e-8, 1.0, 1e4, 1e6])
+def test_grid_density_range_in_the_sun(tmp_path, density):
+    """Shadow rays toward a delta light take residual ratio tracking, here with minorants
+    from 5e-9 to 5e5 per unit (voxels between half the density and all of it). The sky
+    alone gives at most 1 (a white furnace; less where max_depth cuts long walks); the
+    sun (irradiance 1) adds ~0.3 at most on average (a white medium's reflection, ~E / pi).
+    Measured: brightest pixel 1.18; 2 leaves room for an 8-sample pixel's noise and fails
+    on a weight that blows up. (Whether the value is right is for the agreement tests:
+    test_tracer_agreement.py, test_majorants.py.)"""
+    rng = np.random.default_rng(2)
+    write_vol(tmp_path / "g.vol", rng.uniform(0.5 * density, density, (8, 8, 8)))
+    xml = S.scene(S.camera(res=6, fov=30, spp=8), """<medium type="heterogeneous" id="m">
+        <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
+        <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>
+        <float name="albedo" value="1"/></medium>""", S.medium_cube("m"), S.constant_env(),
+        '<emitter type="directional"><vector name="direction" value="-0.3, -1, -0.2"/><rgb name="irradiance" value="1"/></emitter>',
+        max_depth=64)
+    scene = volpath.load_string(xml, base_dir=str(tmp_path))
+    image = volpath.render(scene, tracer="null_scattering")
+    assert_sane(image, scene, upper=2.0)
+
+
 @pytest.mark.parametrize("g", [-0.999, 0.0, 0.999])
 def test_extreme_anisotropy_furnace(g):
     xml = S.scene(S.camera(res=6, fov=30, spp=16), S.homogeneous("m", "2", "1", g=g), S.medium_sphere("m"),
