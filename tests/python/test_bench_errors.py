@@ -1,5 +1,6 @@
-"""bench/compare_mitsuba.py's errors are net of its reference's noise: checked with a fake
-renderer whose noise is known, so that no render is needed."""
+"""bench/compare_mitsuba.py's errors are net of its reference's noise, and bench/ab.py's
+time to equal error is variance x time: checked with fake renderers whose noise is known,
+so that no render is needed."""
 
 import os
 import sys
@@ -7,6 +8,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "bench"))
+import ab  # noqa: E402
 import compare_mitsuba  # noqa: E402
 
 TRUE = np.linspace(0.1, 2.0, 64 * 64 * 3).reshape(64, 64, 3)
@@ -32,6 +34,19 @@ def test_the_reference_variance_is_measured_and_taken_off():
     assert abs(net / np.sqrt(1 / 4) - 1) < 0.05
     # An image as good as the reference cannot be told apart from it.
     assert compare_mitsuba.rmse_net(0.5 * ref_var, ref_var) is None
+
+
+def test_ab_time_to_equal_error_is_variance_times_time():
+    # Build B: half the variance, 1.5x the time per render: 0.75x the time to equal error.
+    # 8 renders of 12288 pixel values: the mean variance is known to sqrt(2 / 7 / 12288) =
+    # 0.5 % (relative), so 3 % is about 4 standard deviations of the ratio.
+    rng = np.random.default_rng(5)
+    a = [TRUE + rng.normal(0.0, 1.0, TRUE.shape) for _ in range(8)]
+    b = [TRUE + rng.normal(0.0, np.sqrt(0.5), TRUE.shape) for _ in range(8)]
+    var_a, t_a, cost_a = ab.time_to_equal_error(a, [1.0, 1.1, 0.9, 1.0, 5.0, 1.0, 1.0, 1.0])  # median: 1.0
+    var_b, t_b, cost_b = ab.time_to_equal_error(b, [1.5] * 8)
+    assert abs(var_a - 1) < 0.03 and t_a == 1.0 and t_b == 1.5
+    assert abs(cost_b / cost_a - 0.75) < 0.03
 
 
 def load_accuracy_study():
