@@ -11,7 +11,7 @@ its ratio to the first (< 1: faster to equal error).
 A build is a git revision (built from `git archive`, cached by commit in bench/cache/ab/)
 or `WORKTREE`, the working tree as it is (uncommitted changes included), e.g.
 
-    python bench/ab.py HEAD WORKTREE --scene bench/scenes/hetero_cube.xml --param res=128 --spp 32
+    .venv/bin/python bench/ab.py HEAD WORKTREE --scene bench/scenes/hetero_cube.xml --param res=128 --spp 32
 
 This measures changes one at a time, on this machine, with nothing else running: it is how
 the README's and the commits' "interleaved A/B" figures were taken. `make bench` compares
@@ -81,11 +81,12 @@ def build(rev):
     src, key = source_tree(rev)
     work = os.path.join(CACHE, key)
     build_dir, pkg = os.path.join(work, "build"), os.path.join(work, "pkg")
-    import pybind11
+    if not os.path.exists(os.path.join(build_dir, "CMakeCache.txt")):  # later builds reconfigure as needed
+        import pybind11
 
-    subprocess.run(["cmake", "-S", os.path.join(src, "native"), "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release",
-                    f"-Dpybind11_DIR={pybind11.get_cmake_dir()}", f"-DPython_EXECUTABLE={sys.executable}"],
-                   check=True, capture_output=True)
+        subprocess.run(["cmake", "-S", os.path.join(src, "native"), "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release",
+                        f"-Dpybind11_DIR={pybind11.get_cmake_dir()}", f"-DPython_EXECUTABLE={sys.executable}"],
+                       check=True, capture_output=True)
     subprocess.run(["cmake", "--build", build_dir, "--target", "_core", "-j", str(os.cpu_count() or 2)], check=True,
                    capture_output=True)
     shutil.rmtree(pkg, ignore_errors=True)

@@ -68,15 +68,21 @@ def test_very_dense_scattering_is_bounded(sigma_t, tracer):
     assert image.mean() <= 1.0
 
 
-@pytest.mark.parametrize("density", [1e-8, 1.0, 1e4])
-def test_grid_density_range(tmp_path, density):
-    rng = np.random.default_rng(1)
-    write_vol(tmp_path / "g.vol", rng.uniform(0, density, (8, 8, 8)))
+def white_grid_cube(tmp_path, data, *lights):
+    """A white (albedo 1) grid medium of `data` filling the cube [-1, 1]^3, under a constant
+    sky and `lights`, max_depth 64."""
+    write_vol(tmp_path / "g.vol", data)
     xml = S.scene(S.camera(res=6, fov=30, spp=8), """<medium type="heterogeneous" id="m">
         <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
         <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>
-        <float name="albedo" value="1"/></medium>""", S.medium_cube("m"), S.constant_env(), max_depth=64)
-    scene = volpath.load_string(xml, base_dir=str(tmp_path))
+        <float name="albedo" value="1"/></medium>""", S.medium_cube("m"), S.constant_env(), *lights, max_depth=64)
+    return volpath.load_string(xml, base_dir=str(tmp_path))
+
+
+@pytest.mark.parametrize("density", [1e-8, 1.0, 1e4])
+def test_grid_density_range(tmp_path, density):
+    rng = np.random.default_rng(1)
+    scene = white_grid_cube(tmp_path, rng.uniform(0, density, (8, 8, 8)))
     image = volpath.render(scene, tracer="null_scattering")
     assert_sane(image, scene)
     if density <= 1:
@@ -94,14 +100,8 @@ def test_grid_density_range_in_the_sun(tmp_path, density):
     on a weight that blows up. (Whether the value is right is for the agreement tests:
     test_tracer_agreement.py, test_majorants.py.)"""
     rng = np.random.default_rng(2)
-    write_vol(tmp_path / "g.vol", rng.uniform(0.5 * density, density, (8, 8, 8)))
-    xml = S.scene(S.camera(res=6, fov=30, spp=8), """<medium type="heterogeneous" id="m">
-        <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
-        <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>
-        <float name="albedo" value="1"/></medium>""", S.medium_cube("m"), S.constant_env(),
-        '<emitter type="directional"><vector name="direction" value="-0.3, -1, -0.2"/><rgb name="irradiance" value="1"/></emitter>',
-        max_depth=64)
-    scene = volpath.load_string(xml, base_dir=str(tmp_path))
+    sun = '<emitter type="directional"><vector name="direction" value="-0.3, -1, -0.2"/><rgb name="irradiance" value="1"/></emitter>'
+    scene = white_grid_cube(tmp_path, rng.uniform(0.5 * density, density, (8, 8, 8)), sun)
     image = volpath.render(scene, tracer="null_scattering")
     assert_sane(image, scene, upper=2.0)
 

@@ -601,7 +601,8 @@ MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) 
 bool MajorantIterator::next(MajorantSegment &seg) {
     if (!medium_) return false;
     if (const auto *h = std::get_if<HomogeneousMedium>(medium_)) {
-        seg = {t_, t_end_, h->sigma_a + h->sigma_s, h->sigma_a + h->sigma_s};
+        const Spectrum sigma_t = h->sigma_a + h->sigma_s;
+        seg = {t_, t_end_, sigma_t, sigma_t};  // its own majorant and minorant
         medium_ = nullptr;
         return true;
     }
