@@ -147,22 +147,55 @@ def load_ply(path):
                     if "nx" in arr.dtype.names:
                         normals = np.stack([arr["nx"], arr["ny"], arr["nz"]], axis=1).astype(np.float64)
             else:
-                rows = []
-                for _ in range(el["count"]):
-                    row = {}
-                    for name, t, a, b in props:
-                        if t == "list":
-                            k = int(np.frombuffer(buf, order + a, 1, pos)[0]); pos += np.dtype(a).itemsize
-                            row[name] = np.frombuffer(buf, order + b, k, pos); pos += k * np.dtype(b).itemsize
-                        else:
-                            row[name] = np.frombuffer(buf, order + t, 1, pos)[0]; pos += np.dtype(t).itemsize
-                    rows.append(row)
+                lists, pos = _binary_lists(buf, pos, el, order)
                 if el["name"] == "face":
-                    faces = [r.get("vertex_indices", r.get("vertex_index")) for r in rows]
+                    faces = lists.get("vertex_indices", lists.get("vertex_index"))
     if positions is None or faces is None:
         raise SceneError(f"{path}: PLY file needs 'vertex' and 'face' elements")
+    return _check(path, positions, _fan(faces), normals)
+
+
+def _fan(faces):
+    """Triangles (m, 3) from polygons: an (n, k) array of k-gons, or a list of index arrays."""
+    if isinstance(faces, np.ndarray):
+        k = faces.shape[1]
+        if k < 3:
+            return np.empty((0, 3), np.int64)
+        i = np.arange(1, k - 1)
+        return np.stack([np.repeat(faces[:, :1], k - 2, axis=1), faces[:, i], faces[:, i + 1]], axis=2).reshape(-1, 3)
     tris = [[f[0], f[i], f[i + 1]] for f in faces for i in range(1, len(f) - 1)]
-    return _check(path, positions, np.array(tris, dtype=np.int64).reshape(-1, 3), normals)
+    return np.array(tris, dtype=np.int64).reshape(-1, 3)
+
+
+def _binary_lists(buf, pos, el, order):
+    """A binary element with list properties: ({list name: (n, k) array when every row's
+    list has k entries, else a list of arrays}, position after the element). Meshes whose
+    faces all have one size (triangles, quads) are read as one structured array."""
+    props, count = el["props"], el["count"]
+    first = pos
+    fields = []
+    for name, t, a, b in props:  # every list assumed to hold as many entries as the first row's
+        if t == "list":
+            k = int(np.frombuffer(buf, order + a, 1, first)[0]) if count else 0
+            fields += [(name + "#", order + a), (name, order + b, (k,))]
+            first += np.dtype(a).itemsize + k * np.dtype(b).itemsize
+        else:
+            fields.append((name, order + t))
+            first += np.dtype(t).itemsize
+    dt = np.dtype(fields)
+    if pos + dt.itemsize * count <= len(buf):
+        arr = np.frombuffer(buf, dtype=dt, count=count, offset=pos)
+        if all(np.all(arr[name + "#"] == dt[name].shape[0]) for name, t, _, _ in props if t == "list"):
+            return {name: arr[name].astype(np.int64) for name, t, _, _ in props if t == "list"}, pos + dt.itemsize * count
+    lists = {name: [] for name, t, _, _ in props if t == "list"}
+    for _ in range(count):
+        for name, t, a, b in props:
+            if t == "list":
+                k = int(np.frombuffer(buf, order + a, 1, pos)[0]); pos += np.dtype(a).itemsize
+                lists[name].append(np.frombuffer(buf, order + b, k, pos)); pos += k * np.dtype(b).itemsize
+            else:
+                pos += np.dtype(t).itemsize
+    return lists, pos
 
 
 def write_ply(path, positions, triangles, normals=None):

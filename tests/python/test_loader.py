@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import volpath
-from volpath.meshes import write_ply
+from volpath.meshes import load_mesh, write_ply
 
 import scenes as S
 
@@ -83,6 +83,32 @@ def test_load_file_and_meshes(tmp_path):
     image = volpath.render(scene, spp=4)
     # The emitting quad fills the view: radiance 1 where it is seen.
     assert abs(image[4, 4, 0] - 1) < 1e-6
+
+
+def _ply(path, order, faces, extra_face_prop=False):
+    """A binary PLY of four vertices whose faces are the given index lists."""
+    o = "<" if order == "little" else ">"
+    head = [f"ply", f"format binary_{order}_endian 1.0", "element vertex 4", "property float x",
+            "property float y", "property float z", f"element face {len(faces)}",
+            "property list uchar int vertex_indices"] + (["property uchar flags"] if extra_face_prop else [])
+    body = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], o + "f4").tobytes()
+    for f in faces:
+        body += np.array([len(f)], "u1").tobytes() + np.array(f, o + "i4").tobytes()
+        body += b"\x07" if extra_face_prop else b""
+    path.write_bytes(("\n".join(head + ["end_header"]) + "\n").encode() + body)
+    return path
+
+
+@pytest.mark.parametrize("order", ["little", "big"])
+@pytest.mark.parametrize("faces", [[[0, 1, 2], [0, 2, 3]], [[0, 1, 2, 3]], [[0, 1, 2, 3], [0, 1, 2]],
+                                   [[3, 2, 1, 0], [0, 1, 2, 3], [1, 2, 3]]])
+@pytest.mark.parametrize("extra", [False, True])
+def test_binary_ply_faces_fan_triangulated(tmp_path, order, faces, extra):
+    # One structured read when every face has one size, a row-by-row walk otherwise:
+    # both fan-triangulate each polygon in order and skip the face's other properties.
+    _, triangles, _ = load_mesh(str(_ply(tmp_path / "m.ply", order, faces, extra)))
+    expected = [[f[0], f[i], f[i + 1]] for f in faces for i in range(1, len(f) - 1)]
+    assert triangles.tolist() == expected
 
 
 def test_transforms_compose_in_order():
