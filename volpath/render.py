@@ -5,6 +5,7 @@ import os
 import numpy as np
 
 from . import _core
+from .adaptive import render_adaptive
 from .auto import choose_tracer
 from .errors import RenderCancelled
 from .scene import TRACERS
@@ -12,10 +13,11 @@ from .spectral import Film
 
 
 SAMPLERS = ("sobol", "independent")
+MAX_SPP = 1024  # the cap of a render to a target error when no spp is given
 
 
 def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
-           out=None, sampler="sobol", light_distances=None):
+           out=None, sampler="sobol", light_distances=None, target_error=None, status=None):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``); in spectral
@@ -39,6 +41,15 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     light_distances  NEE in homogeneous media also from distances drawn for the lights
                (all but environments), combined with free flight's by MIS (default: the
                scene's integrator setting, on unless the file turns it off)
+    target_error  render to this relative error instead of a sample count (e.g. 0.01):
+               8x8 blocks take samples in rounds until their relative standard error,
+               estimated from two independent half-buffers, is at most target_error
+               (volpath/adaptive.py defines it); ``spp`` is then the cap per pixel
+               (default 1024). scene.last_render holds the achieved estimate ("error")
+               and the samples taken (spp_mean, spp_min, spp_max)
+    status     with target_error: callable(dict) called with the progress, with "error" (the
+               estimate after the last round), "target", "spp" (mean so far), "seconds" and
+               "seconds_left" (None until a round has been timed)
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
     Statistics are left in ``scene.last_render``: seconds, non-finite samples discarded, and
@@ -51,7 +62,7 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     if max_depth == 0 or max_depth < -1:
         raise ValueError("max_depth must be -1 (unlimited) or at least 1")
     tracer, auto = resolve_tracer(scene, tracer, tolerance, max_depth)
-    spp = scene.spp if spp is None else int(spp)
+    spp = (MAX_SPP if target_error is not None else scene.spp) if spp is None else int(spp)
     if spp < 1:
         raise ValueError(f"spp must be at least 1, got {spp}")
     threads = 0 if threads is None else int(threads)
@@ -66,7 +77,12 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     spp = per_pass * max(len(scene.passes), 1)
     args = (per_pass, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth,
             scene.max_null_collisions, scene.light_distances if light_distances is None else bool(light_distances))
-    if scene.passes:
+    if target_error is not None:
+        if scene.passes:
+            raise ValueError("target_error is not available in spectral mode yet: give spp instead")
+        image, stats = render_adaptive(scene.native, args, target_error, spp, progress, status, out, sampler == "sobol")
+        spp = stats["spp_max"]
+    elif scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")
     else:
         image, stats = _core.render(scene.native, *args, progress, out, sampler == "sobol")

@@ -106,7 +106,8 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
                     int rr_depth, int max_null_collisions, bool light_distances, py::object progress_cb,
-                    py::object out, bool low_discrepancy, uint64_t first_sample) {
+                    py::object out, bool low_discrepancy, uint64_t first_sample, py::object starts,
+                    py::object counts, py::object halves) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -118,6 +119,21 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     settings.low_discrepancy = low_discrepancy;
     settings.threads = threads;
     settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions, light_distances};
+    // Adaptive rendering's per-pixel arrays, used in place (the caller keeps them alive).
+    const auto pixel_array = [&](py::object a, const char *name, std::vector<py::ssize_t> shape, auto *type) {
+        using T = std::remove_pointer_t<decltype(type)>;
+        if (a.is_none()) return static_cast<T *>(nullptr);
+        auto array = py::array_t<T>::ensure(a);
+        if (!array || array.ptr() != a.ptr() || !(array.flags() & py::array::c_style) || !array.writeable() ||
+            std::vector<py::ssize_t>(array.shape(), array.shape() + array.ndim()) != shape)
+            throw std::invalid_argument(std::string(name) + " must be a writeable C-contiguous array of shape (height, width" +
+                                        (shape.size() > 2 ? ", 2, 3)" : ")") + " and dtype " + py::str(py::dtype::of<T>()).cast<std::string>());
+        return array.mutable_data();
+    };
+    const py::ssize_t h = scene.camera.height, w = scene.camera.width;
+    settings.starts = pixel_array(starts, "starts", {h, w}, static_cast<uint32_t *>(nullptr));
+    settings.counts = pixel_array(counts, "counts", {h, w}, static_cast<uint32_t *>(nullptr));
+    settings.halves = pixel_array(halves, "halves", {h, w, 2, 3}, static_cast<double *>(nullptr));
 
     // Rendering into a caller's array lets a progress callback show finished tiles.
     py::array_t<float> image;
@@ -133,7 +149,6 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     float *pixels = image.mutable_data();
     std::fill(pixels, pixels + image.size(), 0.0f);
     RenderProgress progress;
-    progress.tiles_total = tile_count(scene.camera);
     RenderStats stats;
     std::exception_ptr failure;
     bool finished = false;
@@ -168,7 +183,8 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
             }
             if (!progress_cb.is_none()) {
                 try {
-                    const double done = double(progress.tiles_done.load()) / double(progress.tiles_total);
+                    const double done = progress.samples_total ? double(progress.samples_done.load()) /
+                                                                         double(progress.samples_total) : 1.0;
                     py::object keep_going = progress_cb(done);
                     if (!keep_going.is_none() && !keep_going.cast<bool>()) progress.cancel = true;
                 } catch (py::error_already_set &e) {
@@ -394,7 +410,8 @@ PYBIND11_MODULE(_core, m) {
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
           py::arg("light_distances") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
-          py::arg("low_discrepancy") = true, py::arg("first_sample") = 0);
+          py::arg("low_discrepancy") = true, py::arg("first_sample") = 0, py::arg("starts") = py::none(),
+          py::arg("counts") = py::none(), py::arg("halves") = py::none());
 
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.

@@ -16,11 +16,19 @@ struct RenderSettings {
     bool low_discrepancy = true;  // Owen-scrambled Sobol; false: independent PCG32
     int threads = 0;  // 0: all hardware threads
     TracerConfig tracer;
+    // Adaptive rendering (both per pixel, row-major, or null): pixel p takes `counts[p]`
+    // samples (0: left as it is) from index first_sample + starts[p] on.
+    const uint32_t *starts = nullptr, *counts = nullptr;
+    // Two half-buffers (per pixel: the sums of the even and of the odd sample indices, 6
+    // doubles, added to): even and odd samples then come from two independent sequences
+    // (the even ones are the seed's own), so the halves' difference estimates the
+    // variance of their mean without bias, stratified sampling or not.
+    double *halves = nullptr;
 };
 
 struct RenderProgress {
-    std::atomic<int64_t> tiles_done{0};
-    int64_t tiles_total = 0;
+    std::atomic<int64_t> samples_done{0};  // counted as tiles finish
+    int64_t samples_total = 0;
     std::atomic<bool> cancel{false};
 };
 
@@ -35,13 +43,11 @@ struct RenderStats {
     bool cancelled = false;
 };
 
-// Renders into `image` (height * width * 3 floats, row-major, linear RGB).
+// Renders into `image` (height * width * 3 floats, row-major, linear RGB): each pixel's
+// mean over the samples it took in this call.
 RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
                    RenderProgress &progress);
 
 constexpr int kTileSize = 16;
-inline int64_t tile_count(const Camera &c) {
-    return int64_t((c.width + kTileSize - 1) / kTileSize) * ((c.height + kTileSize - 1) / kTileSize);
-}
 
 }  // namespace volpath

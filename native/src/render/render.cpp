@@ -32,6 +32,9 @@ Ray camera_ray(const Camera &c, Real px, Real py) {
     return Ray{c.to_world.point(Vec3(0.0)), d, c.near_clip / local.z, c.far_clip / local.z};
 }
 
+// The seed of a half-buffer's sequence: the even samples keep the render's own.
+uint64_t half_seed(uint64_t seed, uint64_t half) { return half ? mix64(seed ^ 0x8f1bbcdcca62c1d6ULL) : seed; }
+
 }  // namespace
 
 RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
@@ -39,7 +42,11 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
     const auto start = std::chrono::steady_clock::now();
     const Camera &cam = scene.camera;
     const int tiles_x = (cam.width + kTileSize - 1) / kTileSize;
-    progress.tiles_total = tile_count(cam);
+    const int64_t tiles_total = int64_t(tiles_x) * ((cam.height + kTileSize - 1) / kTileSize);
+    const int64_t pixels = int64_t(cam.width) * cam.height;
+    auto samples_of = [&](uint64_t pixel) { return settings.counts ? int64_t(settings.counts[pixel]) : settings.spp; };
+    progress.samples_total = 0;
+    for (int64_t p = 0; p < pixels; ++p) progress.samples_total += samples_of(p);
     std::atomic<int64_t> next_tile{0};
     std::atomic<uint64_t> nonfinite{0}, negative{0};
     std::mutex totals_mutex;
@@ -50,17 +57,22 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
         double local_clamped = 0, local_light = 0;
         for (;;) {
             const int64_t tile = next_tile.fetch_add(1);
-            if (tile >= progress.tiles_total || progress.cancel.load(std::memory_order_relaxed)) break;
+            if (tile >= tiles_total || progress.cancel.load(std::memory_order_relaxed)) break;
             const int x0 = int(tile % tiles_x) * kTileSize, y0 = int(tile / tiles_x) * kTileSize;
+            int64_t tile_samples = 0;
             for (int y = y0; y < std::min(y0 + kTileSize, cam.height); ++y) {
                 for (int x = x0; x < std::min(x0 + kTileSize, cam.width); ++x) {
                     if (progress.cancel.load(std::memory_order_relaxed)) break;
                     const uint64_t pixel = uint64_t(y) * cam.width + x;
-                    Spectrum sum(0.0);
-                    for (int s = 0; s < settings.spp; ++s) {
+                    const int64_t count = samples_of(pixel);
+                    if (count == 0) continue;
+                    const uint64_t first = settings.first_sample + (settings.starts ? settings.starts[pixel] : 0);
+                    Spectrum sum[2] = {Spectrum(0.0), Spectrum(0.0)};
+                    for (int64_t s = 0; s < count; ++s) {
                         // A pixel of many samples must not delay a cancel.
                         if ((s & 63) == 63 && progress.cancel.load(std::memory_order_relaxed)) break;
-                        Sampler sampler(settings.seed, pixel, settings.first_sample + uint64_t(s),
+                        const uint64_t index = first + uint64_t(s), half = settings.halves ? index & 1 : 0;
+                        Sampler sampler(half_seed(settings.seed, half), pixel, settings.halves ? index >> 1 : index,
                                         settings.low_discrepancy);
                         const Vec2 o = filter_offset(cam, sampler);
                         const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);
@@ -75,14 +87,20 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                             local_clamped += average(kept - L);
                         }
                         local_light += average(kept);
-                        sum += kept;
+                        sum[half] += kept;
                     }
-                    const Spectrum mean = sum / Real(std::max(settings.spp, 1));
+                    tile_samples += count;
+                    const Spectrum mean = (sum[0] + sum[1]) / Real(count);
                     float *out = image + pixel * 3;
                     out[0] = float(mean.x), out[1] = float(mean.y), out[2] = float(mean.z);
+                    if (settings.halves) {
+                        double *h = settings.halves + pixel * 6;
+                        h[0] += sum[0].x, h[1] += sum[0].y, h[2] += sum[0].z;
+                        h[3] += sum[1].x, h[4] += sum[1].y, h[5] += sum[1].z;
+                    }
                 }
             }
-            progress.tiles_done.fetch_add(1);
+            progress.samples_done.fetch_add(tile_samples);
         }
         nonfinite.fetch_add(local_nonfinite);
         negative.fetch_add(local_negative);
@@ -91,7 +109,7 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
     };
 
     int n_threads = settings.threads > 0 ? settings.threads : int(std::thread::hardware_concurrency());
-    n_threads = std::max(1, std::min<int>(n_threads, int(progress.tiles_total)));
+    n_threads = std::max(1, std::min<int>(n_threads, int(tiles_total)));
     std::vector<std::thread> pool;
     for (int i = 1; i < n_threads; ++i) pool.emplace_back(worker);
     worker();

@@ -1,0 +1,177 @@
+"""Rendering to an error instead of a sample count (``render(..., target_error=...)``).
+
+The estimate. Every pixel's samples are split by index parity into two half-buffers drawn
+from two independent sequences (the native renderer's ``halves``), so with A and B the
+halves' means and I = (A + B) / 2 the pixel, ((A - B) / 2)^2 estimates the variance of I
+without bias, whether or not the sampler stratifies. The image is cut into BLOCK x BLOCK
+blocks; a block's error is its relative standard error
+
+    E_b = sqrt(mean over the block's pixels and channels of ((A - B) / 2)^2) / (M_b + k),
+
+with M_b the block's mean brightness and k = FLOOR x the median block brightness: relative,
+as a display shows it after exposure, without asking black or nearly black blocks for an
+impossible relative error. The image's error is the pixel-weighted RMS of the E_b.
+
+The rounds. Every pixel first takes ``min_spp`` samples; after each round a block whose
+E_b is above the target takes the samples that its error predicts it still needs (error
+~ 1 / sqrt(n)), at most as many again as it has, until E_b <= target or it reaches
+``max_spp``. A block's decision depends on its own samples through its error estimate,
+which is pooled over up to 3 BLOCK^2 values: the mean's bias that this leaves is of second
+order, below the z-tests' resolution (tests/stats/test_adaptive.py, adaptive against fixed
+sample counts on the bench scenes).
+"""
+
+import time
+
+import numpy as np
+
+from . import _core
+
+BLOCK = 8
+FLOOR = 0.1
+MIN_SPP = 8
+SLACK, AIM = 1.05, 0.95
+
+
+class Adaptive:
+    """The state of one adaptive render: the half-buffers, each pixel's sample count, and
+    the error estimates after the last round."""
+
+    def __init__(self, height, width, target, max_spp, min_spp=MIN_SPP):
+        if not (isinstance(target, (int, float)) and 0 < target < 1):
+            raise ValueError(f"target_error must be a relative error in (0, 1), e.g. 0.01, got {target!r}")
+        if max_spp < 2:
+            raise ValueError(f"spp (the cap with target_error) must be at least 2, got {max_spp}")
+        self.target, self.max_spp = float(target), _even(max_spp, down=True)
+        self.min_spp = min(_even(min_spp), self.max_spp)
+        self.halves = np.zeros((height, width, 2, 3))
+        self.taken = np.zeros((height, width), np.uint32)
+        self.blocks_y, self.blocks_x = -(-height // BLOCK), -(-width // BLOCK)
+        self.error = np.inf
+        self.block_error = np.full((self.blocks_y, self.blocks_x), np.inf)
+
+    def image(self):
+        n = np.maximum(self.taken, 1)[..., None]
+        return (self.halves.sum(axis=2) / n).astype(np.float32)
+
+    def _per_block(self, a):
+        """Sum of a per-pixel array over each block: (blocks_y, blocks_x)."""
+        h, w = a.shape
+        padded = np.zeros((self.blocks_y * BLOCK, self.blocks_x * BLOCK))
+        padded[:h, :w] = a
+        return padded.reshape(self.blocks_y, BLOCK, self.blocks_x, BLOCK).sum(axis=(1, 3))
+
+    def estimate(self):
+        """Update the blocks' and the image's errors from the half-buffers."""
+        half_n = np.maximum(self.taken, 2)[..., None] / 2
+        a, b = self.halves[:, :, 0] / half_n, self.halves[:, :, 1] / half_n
+        pixels = self._per_block(np.ones(self.taken.shape))
+        variance = self._per_block(np.mean(((a - b) / 2) ** 2, axis=2)) / pixels
+        brightness = self._per_block(np.mean((a + b) / 2, axis=2)) / pixels
+        floor = FLOOR * np.median(brightness)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.block_error = np.where(variance > 0, np.sqrt(variance) / (brightness + floor), 0.0)
+        self.error = float(np.sqrt(np.sum(pixels * self.block_error ** 2) / np.sum(pixels)))
+        return self.error
+
+    def level(self, n):
+        """The error E* that the unfinished blocks are sampled to: the image's RMS error is
+        the target when every block ends at min(E_b, E*), or at the error it has at the
+        sample cap when that is higher (water-filling, by bisection)."""
+        weights = self._per_block(np.ones(self.taken.shape))
+        cap_error = self.block_error * np.sqrt(n / self.max_spp)
+
+        def rms(level):
+            final = np.maximum(np.minimum(self.block_error, level), cap_error)
+            return np.sqrt(np.sum(weights * final ** 2) / np.sum(weights))
+
+        lo, hi = 0.0, float(self.block_error.max())
+        if rms(hi) <= self.target:
+            return hi
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if rms(mid) <= self.target else (lo, mid)
+        return lo
+
+    def next_counts(self):
+        """Samples each pixel takes in the next round (uint32, even), and the samples every
+        unfinished block is predicted to need beyond that."""
+        if not self.taken.any():
+            return np.full(self.taken.shape, self.min_spp, np.uint32), 0.0
+        n = self._block_view(self.taken).astype(np.float64)
+        level = self.level(n)
+        # SLACK keeps a block that the estimate's noise puts just above E* from taking a
+        # round of a few samples; AIM lands the next round just below it.
+        unfinished = (self.block_error > SLACK * level) & (n < self.max_spp)
+        with np.errstate(divide="ignore", invalid="ignore"):  # E* = 0: every block to the cap
+            needed = np.minimum(np.ceil(n * (self.block_error / (AIM * level)) ** 2), self.max_spp)
+        step = np.clip(needed - n, n / 4, n)  # at least a quarter more, at most as many again
+        step = np.minimum(2 * np.ceil(step / 2), self.max_spp - n)
+        step = np.where(unfinished, step, 0)
+        later = np.where(unfinished, np.maximum(needed - n - step, 0), 0)
+        return self._pixels(step).astype(np.uint32), float(self._per_block(self._pixels(later)).sum())
+
+    def _block_view(self, per_pixel):
+        """A per-pixel array that is constant over blocks, as (blocks_y, blocks_x)."""
+        return per_pixel[::BLOCK, ::BLOCK]
+
+    def _pixels(self, per_block):
+        h, w = self.taken.shape
+        return np.repeat(np.repeat(per_block, BLOCK, axis=0), BLOCK, axis=1)[:h, :w]
+
+
+def _even(n, down=False):
+    n = int(n)
+    return n - n % 2 if down else n + n % 2
+
+
+def render_adaptive(native, args, target, max_spp, progress, status, out, sobol):
+    """Rounds of native renders until every block meets ``target`` or ``max_spp``; returns
+    (image, stats) as _core.render does, with the achieved error and the spp taken."""
+    spp_unused, seed, threads, *tracer_args = args
+    height, width = native.height, native.width
+    state = Adaptive(height, width, target, max_spp)
+    stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
+    start, light, rounds = time.perf_counter(), 0.0, 0
+    counts, later = state.next_counts()
+    while counts.any():
+        round_samples, done_before = float(counts.sum()), float(state.taken.sum())
+        total = done_before + round_samples + later
+        per_sample = stats["seconds"] / done_before if done_before else None
+
+        def report(fraction):
+            done = done_before + fraction * round_samples
+            if status is not None:
+                left = None if per_sample is None else per_sample * (total - done)
+                status({"error": state.error, "target": state.target, "spp": done / counts.size,
+                        "seconds": time.perf_counter() - start, "seconds_left": left})
+            return None if progress is None else progress(done / total)
+
+        starts = state.taken.copy()
+        image, s = _core.render(native, 2, seed, threads, *tracer_args, report, None, sobol, 0, starts, counts,
+                                state.halves)
+        rounds += 1
+        state.taken += counts
+        stats["seconds"] += s["seconds"]
+        for key in ("nonfinite_samples", "negative_samples"):
+            stats[key] += s[key]
+        stats["clamped_share"] += s["clamped_share"] * round_samples
+        light += round_samples
+        if out is not None:
+            out[...] = state.image()
+        if s["cancelled"]:
+            stats["cancelled"] = True
+            break
+        state.estimate()
+        counts, later = state.next_counts()
+    stats["clamped_share"] /= max(light, 1.0)
+    if progress is not None and not stats["cancelled"]:
+        progress(1.0)
+    spp = state.taken
+    stats.update(error=state.error, target_error=state.target, rounds=rounds, spp_mean=float(spp.mean()),
+                 spp_min=int(spp.min()), spp_max=int(spp.max()), spp_cap=state.max_spp)
+    image = state.image()
+    if out is not None:
+        out[...] = image
+        image = out
+    return image, stats
