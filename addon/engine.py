@@ -18,6 +18,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         import volpath
+        from volpath.adaptive import describe
         from volpath.render import resolve_tracer
 
         scene = depsgraph.scene
@@ -39,6 +40,9 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         image = np.zeros((height, width, 3), np.float32)
         result = self.begin_result(0, 0, width, height)
         start = last_shown = time.monotonic()
+        target = settings.adaptive_threshold if settings.use_adaptive_sampling else None
+        samples = f"{settings.spp} spp" if target is None else f"up to {settings.spp} spp"
+        adaptive = {}  # the latest error estimate, with a noise threshold
 
         def progress(fraction):
             nonlocal last_shown
@@ -48,8 +52,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             elapsed = now - start
             remaining = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
             self.update_progress(fraction)
-            self.update_stats("", f"Volpath | {settings.spp} spp | {tracer} | {elapsed:.1f} s"
-                                  + (f", about {remaining:.0f} s left" if fraction > 0 else ""))
+            left = f", {describe(adaptive)}" if adaptive else (f", about {remaining:.0f} s left" if fraction > 0 else "")
+            self.update_stats("", f"Volpath | {samples} | {tracer} | {elapsed:.1f} s{left}")
             if now - last_shown > 0.5:
                 _show(result, image)
                 self.update_result(result)
@@ -58,7 +62,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
 
         try:
             volpath.render(vp_scene, spp=settings.spp, seed=settings.seed, threads=settings.threads or None,
-                           tracer=tracer, progress=progress, out=image)
+                           tracer=tracer, progress=progress, out=image, target_error=target, status=adaptive.update)
         except volpath.RenderCancelled:
             _show(result, image)
             self.end_result(result, cancel=True)
@@ -72,7 +76,9 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         stats = vp_scene.last_render
         if stats["nonfinite_samples"]:
             self.report({"WARNING"}, f"Volpath: {stats['nonfinite_samples']} non-finite samples discarded")
-        self.update_stats("", f"Volpath | {settings.spp} spp | {tracer} | {stats['seconds']:.1f} s")
+        if target is not None:
+            samples = f"error {100 * stats['error']:.2g} %, {stats['spp_min']}-{stats['spp_max']} spp"
+        self.update_stats("", f"Volpath | {samples} | {tracer} | {stats['seconds']:.1f} s")
 
 
 def _show(result, image):

@@ -15,7 +15,14 @@ TRACER_ITEMS = [
 
 class VolpathSettings(bpy.types.PropertyGroup):
     # Sampling
-    spp: IntProperty(name="Samples", description="Samples per pixel", default=16, min=1, soft_max=4096)
+    spp: IntProperty(name="Samples", description="Samples per pixel (the cap per pixel with a noise threshold)",
+                     default=16, min=1, soft_max=4096)
+    use_adaptive_sampling: BoolProperty(name="Noise Threshold", description="Render until the image's noise is "
+                                        "below the threshold: the noisiest regions take the most samples",
+                                        default=False)
+    adaptive_threshold: FloatProperty(name="Noise Threshold", description="RMS error of the displayed image, in "
+                                      "display units 0..1, at the image's own auto exposure (0.02: 2 % of the "
+                                      "display's range)", default=0.02, min=0.001, max=0.5, precision=3, step=0.1)
     seed: IntProperty(name="Seed", description="The same seed gives the same image on any number of threads",
                       default=0, min=0)
     threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, soft_max=256)

@@ -29,7 +29,19 @@ class _VolpathPanel:
 class VOLPATH_PT_sampling(_VolpathPanel, bpy.types.Panel):
     bl_label = "Sampling"
     bl_context = "render"
-    props = ("spp", "seed", "threads", "tracer")
+    head = ("use_adaptive_sampling", "adaptive_threshold", "spp")  # drawn first, as Cycles draws them
+    props = ("seed", "threads", "tracer")
+
+    def draw(self, context):
+        s = context.scene.volpath
+        self.layout.use_property_split = True
+        row = self.layout.row(heading="Noise Threshold")
+        row.prop(s, "use_adaptive_sampling", text="")
+        sub = row.row()
+        sub.active = s.use_adaptive_sampling
+        sub.prop(s, "adaptive_threshold", text="")
+        self.layout.prop(s, "spp", text="Max Samples" if s.use_adaptive_sampling else "Samples")
+        super().draw(context)
 
     def extra(self, layout, s):
         row = layout.row()

@@ -31,7 +31,8 @@ from . import video
 
 @dataclass
 class Options:
-    spp: int = 16
+    spp: int = 16                  # samples per pixel, or the cap with target_error
+    target_error: float = 0.0      # > 0: each frame to this display error (volpath.render's target_error)
     tracer: str = "auto"
     workers: int = 0               # local processes (0: one per core)
     threads: int = 0               # threads per frame (0: cores / workers locally, 1 on Dask)
@@ -47,6 +48,8 @@ class Options:
     def check(self):
         if self.spp < 1:
             raise ValueError(f"spp must be at least 1, got {self.spp}")
+        if not 0 <= self.target_error < 1:
+            raise ValueError(f"target_error must be a display error in (0, 1) (0: off), got {self.target_error}")
         if self.tracer != "auto" and self.tracer not in volpath.TRACERS:
             raise ValueError(f"unknown tracer '{self.tracer}' (expected auto or one of: {', '.join(volpath.TRACERS)})")
         if self.workers < 0 or self.threads < 0:
@@ -61,13 +64,18 @@ def exr_path(out_dir, frame):
     return os.path.join(out_dir, "frames", f"frame_{frame:04d}.exr")
 
 
-def valid_frame(path, frame, shape, spp):
-    """Whether an EXR on disk is this frame, finished, at this size and spp (resume keeps these)."""
+def valid_frame(path, frame, shape, options):
+    """Whether an EXR on disk is this frame, finished, at this size and spp or target error
+    (resume keeps these)."""
     try:
         image, meta = volpath.read_exr(path, metadata=True)
     except (OSError, ValueError):
         return False
-    return meta.get("frame") == frame and meta.get("spp") == spp and image.shape == shape and np.all(np.isfinite(image))
+    if options.target_error:  # EXR metadata holds it as float32
+        same = meta.get("spp_cap") == options.spp and np.float32(meta.get("target_error", 0)) == np.float32(options.target_error)
+    else:
+        same = meta.get("spp") == options.spp and "target_error" not in meta
+    return meta.get("frame") == frame and same and image.shape == shape and np.all(np.isfinite(image))
 
 
 class Run:
@@ -107,7 +115,7 @@ class Run:
         todo = []
         shape = film_shape(self.animation_dir)
         for f in self.frames:
-            if self.options.resume and valid_frame(exr_path(self.out_dir, f), f, shape, self.options.spp):
+            if self.options.resume and valid_frame(exr_path(self.out_dir, f), f, shape, self.options):
                 self.status[f] = {"status": "kept"}
             else:
                 todo.append(f)
@@ -134,6 +142,8 @@ class Run:
             volpath.write_exr(exr_path(self.out_dir, frame), image, metadata=meta)
             self.status[frame] = {"status": "rendered", "seconds": round(meta["seconds"], 3), "spp": meta["spp"],
                                   "tracer": meta["tracer"], "attempts": attempt}
+            if "error" in meta:  # rendered to a target error: what it achieved, with how many samples
+                self.status[frame].update(error=round(meta["error"], 5), spp_mean=round(meta["spp_mean"], 1))
         elif attempt < 2 and not self.cancel.is_set():
             self.status[frame] = {"status": "retrying", "error": error, "attempts": attempt}
             resubmit(frame, attempt + 1)
@@ -144,7 +154,7 @@ class Run:
 
     def _args(self, frame, source, threads):
         o = self.options
-        return (source, frame, o.spp, o.tracer, None, threads, frame in o.fail_frames)
+        return (source, frame, o.spp, o.tracer, None, threads, frame in o.fail_frames, o.target_error or None)
 
     def _render_local(self, todo, bar):
         cores = os.cpu_count() or 1

@@ -50,6 +50,16 @@ def _exposure(text):
         raise argparse.ArgumentTypeError(f"'{text}': expected a number of stops or 'auto'") from None
 
 
+def _display_error(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}': expected a number such as 0.02") from None
+    if not 0 <= value < 1:
+        raise argparse.ArgumentTypeError(f"{value}: a display error is in [0, 1) (0: off)")
+    return value
+
+
 def _tracer(text):
     import volpath
 
@@ -76,7 +86,11 @@ def parser():
     p.add_argument("--frames", type=_frames, help="frame or range, e.g. 1-72 (default: the scene's range)")
     p.add_argument("--step", type=_count(1), help="render every STEP-th frame (default: the scene's frame step)")
     p.add_argument("--res", type=_resolution, help="WIDTHxHEIGHT (default: the scene's output size)")
-    p.add_argument("--spp", type=_count(1), help="samples per pixel (default: the scene's Volpath samples)")
+    p.add_argument("--spp", type=_count(1), help="samples per pixel, or the cap with --target-error (default: the "
+                                                 "scene's Volpath samples)")
+    p.add_argument("--target-error", type=_display_error, metavar="E",
+                   help="render each frame to this RMS error of the displayed frame, in display units 0..1 "
+                        "(e.g. 0.02; default: the scene's Noise Threshold, 0 = off: fixed spp)")
     p.add_argument("--tracer", type=_tracer, help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)")
     p.add_argument("--out", default=os.path.join("out", "sunrise"), help="output directory (default: out/sunrise)")
     p.add_argument("--fps", type=_count(1), default=24, help="video frame rate (default: 24)")
@@ -119,7 +133,10 @@ def main(argv=None):
     scene = bpy.context.scene
     try:
         frames = settings_to_frames(scene, args.frames, args.step)
-        options = Options(spp=args.spp or scene.volpath.spp, tracer=args.tracer or scene.volpath.tracer,
+        s = scene.volpath
+        target = args.target_error if args.target_error is not None else \
+            (s.adaptive_threshold if s.use_adaptive_sampling else 0.0)
+        options = Options(spp=args.spp or s.spp, target_error=target, tracer=args.tracer or s.tracer,
                           workers=args.workers, threads=args.threads, scheduler=args.scheduler,
                           resume=args.resume, fps=args.fps, exposure=args.exposure)
         options.check()

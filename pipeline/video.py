@@ -9,13 +9,7 @@ import zlib
 
 import numpy as np
 
-
-def display(image, exposure=0.0):
-    """Linear radiance -> display values in [0, 1]: scale by 2^exposure, the ACES filmic
-    fit (Narkowicz 2015), the sRGB transfer curve."""
-    x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0 ** exposure, 0.0)
-    film = np.clip(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
-    return np.where(film <= 0.0031308, 12.92 * film, 1.055 * film ** (1 / 2.4) - 0.055)
+from volpath.tonemap import MIDDLE, display, log_brightness  # noqa: F401  (display: the pipeline's curve)
 
 
 def tonemap(image, exposure=0.0):
@@ -24,16 +18,12 @@ def tonemap(image, exposure=0.0):
 
 
 def auto_exposure(images, frames, window=12):
-    """Stops per frame that bring a robust brightness of each frame (the mean luminance with
-    the brightest 1 % of pixels, the sun's disc, clipped) to 0.25, averaged in log over the
-    frames within +-``window`` so the picture brightens smoothly as the sun rises."""
-    logs = []
-    for img in images:
-        lum = img @ np.array([0.2126, 0.7152, 0.0722])
-        logs.append(np.log2(max(np.minimum(lum, np.percentile(lum, 99)).mean(), 1e-8)))
-    logs, frames = np.array(logs), np.asarray(frames)
+    """Stops per frame that bring a robust brightness of each frame to the display's middle
+    (volpath.tonemap.auto_exposure), averaged in log over the frames within +-``window`` so
+    the picture brightens smoothly as the sun rises."""
+    logs, frames = np.array([log_brightness(img) for img in images]), np.asarray(frames)
     smooth = np.array([logs[np.abs(frames - f) <= window].mean() for f in frames])
-    return np.clip(np.log2(0.25) - smooth, -10.0, 12.0)
+    return np.clip(np.log2(MIDDLE) - smooth, -10.0, 12.0)
 
 
 def write_png(path, rgb):

@@ -7,6 +7,7 @@ import sys
 import time
 
 from . import __version__
+from .adaptive import describe
 from .errors import SceneError
 from .exr import write_exr
 from .render import render
@@ -30,32 +31,42 @@ def _render(args, parser):
     out = args.output
     if os.path.dirname(out) and not os.path.isdir(os.path.dirname(out)):
         parser.error(f"output directory '{os.path.dirname(out)}' does not exist")
-    spp = args.spp or scene.spp
+    target = args.target_error
+    spp = args.spp or (None if target else scene.spp)
     tracer = args.tracer or scene.tracer
-    bar = tqdm(total=100, unit="%", desc=f"{scene.width}x{scene.height} {spp} spp {tracer}",
-               disable=args.quiet, bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}")
+    what = f"up to {spp or 'the cap of'} spp, target error {100 * target:g} %" if target else f"{spp} spp"
+    bar = tqdm(total=100, unit="%", desc=f"{scene.width}x{scene.height} {what} {tracer}", disable=args.quiet,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}")
 
     def progress(fraction):
         bar.n = round(100 * fraction, 1)
         bar.refresh()
         return True
 
+    def status(s):
+        bar.set_postfix_str(describe(s), refresh=False)
+
     start = time.perf_counter()
     try:
         image = render(scene, spp=spp, seed=args.seed, threads=args.threads, tracer=tracer, progress=progress,
-                       max_depth=args.max_depth)
+                       max_depth=args.max_depth, target_error=target, status=status)
     finally:
         bar.close()
     seconds = time.perf_counter() - start
     stats = scene.last_render
+    spp = stats["spp"]
     if stats.get("auto"):
         tracer = stats["tracer"]
         print(f"auto: {tracer}: " + "; ".join(stats["auto"]["reasons"]))
-    write_exr(out, image, metadata={"volpath_version": __version__, "spp": spp, "tracer": tracer,
-                                    "seed": args.seed, "seconds": seconds,
-                                    "nonfinite_samples": stats["nonfinite_samples"],
-                                    "negative_samples": stats["negative_samples"]})
-    print(f"{out}: {scene.width}x{scene.height}, {spp} spp, tracer {tracer}, {seconds:.2f} s, "
+    metadata = {"volpath_version": __version__, "spp": spp, "tracer": tracer, "seed": args.seed, "seconds": seconds,
+                "nonfinite_samples": stats["nonfinite_samples"], "negative_samples": stats["negative_samples"]}
+    samples = f"{spp} spp"
+    if target:
+        metadata.update(target_error=target, error=stats["error"], spp_mean=stats["spp_mean"])
+        samples = (f"error {100 * stats['error']:.2g} % (target {100 * target:g} %), {stats['spp_min']}-{spp} spp "
+                   f"(mean {stats['spp_mean']:.0f})")
+    write_exr(out, image, metadata=metadata)
+    print(f"{out}: {scene.width}x{scene.height}, {samples}, tracer {tracer}, {seconds:.2f} s, "
           f"{stats['nonfinite_samples']} non-finite samples discarded, {stats['negative_samples']} negative "
           f"samples clamped ({stats['clamped_share']:.1e} of the light)")
 
@@ -104,7 +115,11 @@ def main(argv=None):
     r = sub.add_parser("render", help="render a scene to an EXR file")
     r.add_argument("scene")
     r.add_argument("-o", "--output", required=True, help="output .exr file")
-    r.add_argument("--spp", type=int, help="samples per pixel (default: the scene's)")
+    r.add_argument("--spp", type=int, help="samples per pixel (default: the scene's; with --target-error the cap, "
+                                           "default 1024)")
+    r.add_argument("--target-error", type=float, metavar="E",
+                   help="render until the displayed image's RMS error is E, in display units 0..1 "
+                        "(e.g. 0.01; volpath/adaptive.py defines it)")
     r.add_argument("--tracer", choices=("auto",) + TRACERS, help="default: the scene's (usually auto)")
     r.add_argument("--threads", type=int, help="default: all cores")
     r.add_argument("--seed", type=int, default=0)
@@ -120,6 +135,8 @@ def main(argv=None):
         if args.command == "render":
             if args.spp is not None and args.spp < 1:
                 parser.error("--spp must be at least 1")
+            if args.target_error is not None and not 0 < args.target_error < 1:
+                parser.error("--target-error must be a display error in (0, 1), e.g. 0.01")
             if args.threads is not None and args.threads < 1:
                 parser.error("--threads must be at least 1")
             _render(args, parser)

@@ -1,24 +1,26 @@
 """Rendering to an error instead of a sample count (``render(..., target_error=...)``).
 
+The error is the one the picture shows: the RMS difference between the displayed image and
+the displayed converged image, in display units 0..1 (volpath/tonemap.py: exposure, the
+filmic curve, sRGB; the exposure is the image's own auto exposure unless one is given), so
+target_error=0.01 asks for 1 % of the display's range, and dark and overexposed regions
+count as little as they show.
+
 The estimate. Every pixel's samples are split by index parity into two half-buffers drawn
 from two independent sequences (the native renderer's ``halves``), so with A and B the
 halves' means and I = (A + B) / 2 the pixel, ((A - B) / 2)^2 estimates the variance of I
-without bias, whether or not the sampler stratifies. The image is cut into BLOCK x BLOCK
-blocks; a block's error is its relative standard error
+without bias, whether or not the sampler stratifies. Carried to the display by the curve's
+slope at I, it gives each BLOCK x BLOCK block's mean squared display error; the image's
+error is the pixel-weighted RMS over the blocks.
 
-    E_b = sqrt(mean over the block's pixels and channels of ((A - B) / 2)^2) / (M_b + k),
-
-with M_b the block's mean brightness and k = FLOOR x the median block brightness: relative,
-as a display shows it after exposure, without asking black or nearly black blocks for an
-impossible relative error. The image's error is the pixel-weighted RMS of the E_b.
-
-The rounds. Every pixel first takes ``min_spp`` samples; after each round a block whose
-E_b is above the target takes the samples that its error predicts it still needs (error
-~ 1 / sqrt(n)), at most as many again as it has, until E_b <= target or it reaches
-``max_spp``. A block's decision depends on its own samples through its error estimate,
-which is pooled over up to 3 BLOCK^2 values: the mean's bias that this leaves is of second
-order, below the z-tests' resolution (tests/stats/test_adaptive.py, adaptive against fixed
-sample counts on the bench scenes).
+The rounds. Every pixel first takes ``min_spp`` samples. After each round, water-filling
+finds the level E* to which the blocks above it must be brought so that the image's error
+is the target (blocks below it, or stopped at the sample cap, keep theirs); each such block
+takes the samples that its error predicts it needs (error ~ 1 / sqrt(n)), at least a
+quarter more and at most as many again as it has. A block's decision depends on its own
+samples only through its error estimate, pooled over up to 3 BLOCK^2 values: the bias this
+leaves is of second order, below the z-tests' resolution, where per-pixel decisions are
+caught at z = 12 (tests/stats/test_adaptive.py).
 """
 
 import time
@@ -26,9 +28,9 @@ import time
 import numpy as np
 
 from . import _core
+from .tonemap import auto_exposure, display_slope
 
 BLOCK = 8
-FLOOR = 0.1
 MIN_SPP = 8
 SLACK, AIM = 1.05, 0.95
 
@@ -37,12 +39,12 @@ class Adaptive:
     """The state of one adaptive render: the half-buffers, each pixel's sample count, and
     the error estimates after the last round."""
 
-    def __init__(self, height, width, target, max_spp, min_spp=MIN_SPP):
+    def __init__(self, height, width, target, max_spp, exposure=None, min_spp=MIN_SPP):
         if not (isinstance(target, (int, float)) and 0 < target < 1):
-            raise ValueError(f"target_error must be a relative error in (0, 1), e.g. 0.01, got {target!r}")
+            raise ValueError(f"target_error must be a display error in (0, 1), e.g. 0.01, got {target!r}")
         if max_spp < 2:
             raise ValueError(f"spp (the cap with target_error) must be at least 2, got {max_spp}")
-        self.target, self.max_spp = float(target), _even(max_spp, down=True)
+        self.target, self.max_spp, self.exposure = float(target), _even(max_spp, down=True), exposure
         self.min_spp = min(_even(min_spp), self.max_spp)
         self.halves = np.zeros((height, width, 2, 3))
         self.taken = np.zeros((height, width), np.uint32)
@@ -62,15 +64,14 @@ class Adaptive:
         return padded.reshape(self.blocks_y, BLOCK, self.blocks_x, BLOCK).sum(axis=(1, 3))
 
     def estimate(self):
-        """Update the blocks' and the image's errors from the half-buffers."""
+        """Update the blocks' and the image's display errors from the half-buffers."""
         half_n = np.maximum(self.taken, 2)[..., None] / 2
         a, b = self.halves[:, :, 0] / half_n, self.halves[:, :, 1] / half_n
+        image = (a + b) / 2
+        exposure = auto_exposure(image) if self.exposure is None else self.exposure
+        squared = np.mean((display_slope(image, exposure) * (a - b) / 2) ** 2, axis=2)
         pixels = self._per_block(np.ones(self.taken.shape))
-        variance = self._per_block(np.mean(((a - b) / 2) ** 2, axis=2)) / pixels
-        brightness = self._per_block(np.mean((a + b) / 2, axis=2)) / pixels
-        floor = FLOOR * np.median(brightness)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self.block_error = np.where(variance > 0, np.sqrt(variance) / (brightness + floor), 0.0)
+        self.block_error = np.sqrt(self._per_block(squared) / pixels)
         self.error = float(np.sqrt(np.sum(pixels * self.block_error ** 2) / np.sum(pixels)))
         return self.error
 
@@ -125,12 +126,12 @@ def _even(n, down=False):
     return n - n % 2 if down else n + n % 2
 
 
-def render_adaptive(native, args, target, max_spp, progress, status, out, sobol):
+def render_adaptive(native, args, target, max_spp, exposure, progress, status, out, sobol):
     """Rounds of native renders until every block meets ``target`` or ``max_spp``; returns
     (image, stats) as _core.render does, with the achieved error and the spp taken."""
     spp_unused, seed, threads, *tracer_args = args
     height, width = native.height, native.width
-    state = Adaptive(height, width, target, max_spp)
+    state = Adaptive(height, width, target, max_spp, exposure)
     stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
     start, light, rounds = time.perf_counter(), 0.0, 0
     counts, later = state.next_counts()
@@ -175,3 +176,15 @@ def render_adaptive(native, args, target, max_spp, progress, status, out, sobol)
         out[...] = image
         image = out
     return image, stats
+
+
+def describe(status):
+    """A status as people read it: "error 1.8 % → 1 %, ~12 s left" (percent of the display's range)."""
+    text = f"error {_percent(status['error'])} → {_percent(status['target'])}"
+    if status.get("seconds_left") is not None:
+        text += f", ~{status['seconds_left']:.0f} s left"
+    return text
+
+
+def _percent(x):
+    return "…" if not np.isfinite(x) else f"{100 * x:.2g} %"

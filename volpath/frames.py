@@ -119,9 +119,10 @@ def frame_dictionary(d, animation, entry):
     return d
 
 
-def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fail=False):
+def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fail=False, target_error=None):
     """Render one frame; returns (image, metadata). The seed defaults to the frame number,
-    so a frame is the same bits wherever and however often it is rendered."""
+    so a frame is the same bits wherever and however often it is rendered. With
+    ``target_error`` the frame renders to that display error and ``spp`` is the cap."""
     from . import __version__
     from .render import render
     from .scene import load_dict
@@ -135,13 +136,17 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fai
     entry = entries[0]
     start = time.perf_counter()
     scene = load_dict(frame_dictionary(d, animation, entry), base_dir=directory, source=f"frame {frame}")
-    image = render(scene, spp=spp, seed=frame if seed is None else seed, threads=threads, tracer=tracer)
+    image = render(scene, spp=spp, seed=frame if seed is None else seed, threads=threads, tracer=tracer,
+                   target_error=target_error)
     stats = scene.last_render
     sun = next(iter(entry["suns"].values()), None)
     metadata = {"frame": int(frame), "spp": int(stats["spp"]), "tracer": stats["tracer"], "seed": int(stats["seed"]),
                 "seconds": float(time.perf_counter() - start), "render_seconds": float(stats["seconds"]),
                 "nonfinite_samples": int(stats["nonfinite_samples"]), "negative_samples": int(stats["negative_samples"]),
                 "volpath_version": __version__}
+    if target_error is not None:
+        metadata.update(target_error=float(target_error), error=float(stats["error"]), spp_cap=int(spp),
+                        spp_mean=float(stats["spp_mean"]))
     if sun is not None:
         metadata["sun_direction"] = np.asarray(sun, dtype=np.float64)
     return image, metadata

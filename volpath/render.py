@@ -17,7 +17,7 @@ MAX_SPP = 1024  # the cap of a render to a target error when no spp is given
 
 
 def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
-           out=None, sampler="sobol", light_distances=None, target_error=None, status=None):
+           out=None, sampler="sobol", light_distances=None, target_error=None, exposure=None, status=None):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``); in spectral
@@ -41,12 +41,15 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     light_distances  NEE in homogeneous media also from distances drawn for the lights
                (all but environments), combined with free flight's by MIS (default: the
                scene's integrator setting, on unless the file turns it off)
-    target_error  render to this relative error instead of a sample count (e.g. 0.01):
-               8x8 blocks take samples in rounds until their relative standard error,
-               estimated from two independent half-buffers, is at most target_error
-               (volpath/adaptive.py defines it); ``spp`` is then the cap per pixel
-               (default 1024). scene.last_render holds the achieved estimate ("error")
-               and the samples taken (spp_mean, spp_min, spp_max)
+    target_error  render to this error instead of a sample count: the RMS error of the
+               displayed image in display units 0..1 (0.01: 1 % of the display's range;
+               volpath/adaptive.py defines it and its estimate from two independent
+               half-buffers). 8x8 blocks take samples in rounds, the noisiest first;
+               ``spp`` is then the cap per pixel (default 1024). scene.last_render holds
+               the achieved estimate ("error") and the samples taken (spp_mean, spp_min,
+               spp_max)
+    exposure   with target_error: the exposure in stops at which the error is measured
+               (default: the image's own auto exposure, as the pipeline's video sets it)
     status     with target_error: callable(dict) called with the progress, with "error" (the
                estimate after the last round), "target", "spp" (mean so far), "seconds" and
                "seconds_left" (None until a round has been timed)
@@ -80,7 +83,8 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     if target_error is not None:
         if scene.passes:
             raise ValueError("target_error is not available in spectral mode yet: give spp instead")
-        image, stats = render_adaptive(scene.native, args, target_error, spp, progress, status, out, sampler == "sobol")
+        image, stats = render_adaptive(scene.native, args, target_error, spp, exposure, progress, status, out,
+                                       sampler == "sobol")
         spp = stats["spp_max"]
     elif scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")

@@ -63,6 +63,17 @@ def test_f12_equals_rendering_the_exported_directory(blank, tmp_path):
     assert cli.mean() > 0.05
 
 
+def test_f12_noise_threshold_renders_to_the_target_error(blank, tmp_path):
+    small_scene(blank)
+    blank.volpath.seed, blank.volpath.tracer, blank.volpath.spp = 3, "nee_mis", 256
+    blank.volpath.use_adaptive_sampling, blank.volpath.adaptive_threshold = True, 0.02
+    f12 = render_f12(blank, tmp_path / "f12.exr")
+    scene = volpath.load_file(write_directory(export_scene(depsgraph()), tmp_path / "scene"))
+    cli = volpath.render(scene, seed=3, tracer="nee_mis", spp=256, target_error=0.02, threads=1)
+    assert np.array_equal(f12, cli)
+    assert scene.last_render["error"] <= 0.02 * 1.001 and scene.last_render["spp_min"] < 256
+
+
 def test_instances_share_arrays_and_modifiers_apply(blank):
     bpy.ops.mesh.primitive_cube_add(size=2)
     bpy.ops.object.duplicate_move_linked(TRANSFORM_OT_translate={"value": (3, 0, 0)})

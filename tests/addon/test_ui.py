@@ -10,7 +10,7 @@ def test_panel_properties_and_operators_exist(blank):
     settings = blank.volpath
     for cls in ui.CLASSES:
         assert cls.props or cls.extra is not ui._VolpathPanel.extra
-        for name in cls.props:
+        for name in getattr(cls, "head", ()) + cls.props:
             assert hasattr(settings, name), (cls.__name__, name)
     for op in ("render_video", "open_output", "export_scene"):
         assert hasattr(bpy.ops.volpath, op)

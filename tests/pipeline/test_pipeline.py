@@ -49,6 +49,29 @@ def test_python_entry_point_makes_frames_metadata_and_video(tmp_path):
     assert summary["video_frames"] == FRAMES and (out / "contact_sheet.png").exists()
 
 
+def test_frames_to_a_target_error_report_it_and_resume_by_it(tmp_path):
+    # Every frame to the same display error: each frame's EXR and summary.json say what it
+    # achieved and with how many samples; a resume keeps frames of the same target and cap
+    # and renders again those of another.
+    blend = tiny_animation(tmp_path / "tiny.blend", frames=2)
+    out = tmp_path / "out"
+    r = cli("--blend", blend, "--out", out, "--target-error", 0.01, "--spp", 64, "--workers", 1)
+    assert r.returncode == 0, r.stderr[-3000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["options"]["target_error"] == 0.01
+    for f in (1, 2):
+        _, meta = volpath.read_exr(out / "frames" / f"frame_{f:04d}.exr", metadata=True)
+        assert meta["target_error"] == pytest.approx(0.01) and meta["spp_cap"] == 64 and meta["spp"] <= 64
+        status = summary["frames"][str(f)]
+        assert status["error"] == pytest.approx(meta["error"], abs=1e-5) and status["spp_mean"] == pytest.approx(meta["spp_mean"], abs=0.06)
+    r = cli("--blend", blend, "--out", out, "--target-error", 0.01, "--spp", 64, "--resume", "--workers", 1)
+    assert [s["status"] for s in json.loads((out / "summary.json").read_text())["frames"].values()] == ["kept"] * 2
+    r = cli("--blend", blend, "--out", out, "--target-error", 0.02, "--spp", 64, "--resume", "--workers", 1)
+    assert [s["status"] for s in json.loads((out / "summary.json").read_text())["frames"].values()] == ["rendered"] * 2
+    r = cli("--blend", blend, "--out", out, "--target-error", 1.5)
+    assert r.returncode == 2 and "display error" in r.stderr
+
+
 def test_blender_entry_point(tmp_path):
     """`blender -b tiny.blend --python pipeline/sunrise.py -- ...`: Blender runs the file as
     __main__ with the .blend open and its own arguments before `--` (simulated with the
