@@ -62,7 +62,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
 
         try:
             volpath.render(vp_scene, spp=settings.spp, seed=settings.seed, threads=settings.threads or None,
-                           tracer=tracer, progress=progress, out=image, target_error=target, status=adaptive.update)
+                           tracer=tracer, progress=progress, out=image, target_error=target, status=adaptive.update,
+                           denoise=settings.use_denoising)
         except volpath.RenderCancelled:
             _show(result, image)
             self.end_result(result, cancel=True)

@@ -58,6 +58,7 @@ class VideoJob:
         self.out_dir = bpy.path.abspath(s.video_directory)
         self.frames = settings_to_frames(scene, step=s.video_step)
         options = Options(spp=s.spp, target_error=s.adaptive_threshold if s.use_adaptive_sampling else 0.0,
+                          denoise=s.use_denoising,
                           tracer=s.tracer, workers=s.video_workers, threads=s.threads,
                           scheduler=s.video_scheduler.strip(), resume=s.video_resume, fps=s.video_fps,
                           exposure="auto", video_name=f"{bpy.path.clean_name(scene.name)}.mp4")

@@ -23,6 +23,9 @@ class VolpathSettings(bpy.types.PropertyGroup):
     adaptive_threshold: FloatProperty(name="Noise Threshold", description="RMS error of the displayed image, in "
                                       "display units 0..1, at the image's own auto exposure (0.02: 2 % of the "
                                       "display's range)", default=0.02, min=0.001, max=0.5, precision=3, step=0.1)
+    use_denoising: BoolProperty(name="Denoise", description="Pass the render through Intel Open Image Denoise "
+                                "with the albedo and normal of the first surfaces: far less noise, some bias",
+                                default=False)
     seed: IntProperty(name="Seed", description="The same seed gives the same image on any number of threads",
                       default=0, min=0)
     threads: IntProperty(name="Threads", description="Render threads (0: all cores)", default=0, min=0, soft_max=256)

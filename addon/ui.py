@@ -30,7 +30,7 @@ class VOLPATH_PT_sampling(_VolpathPanel, bpy.types.Panel):
     bl_label = "Sampling"
     bl_context = "render"
     head = ("use_adaptive_sampling", "adaptive_threshold", "spp")  # drawn first, as Cycles draws them
-    props = ("seed", "threads", "tracer")
+    props = ("use_denoising", "seed", "threads", "tracer")
 
     def draw(self, context):
         s = context.scene.volpath

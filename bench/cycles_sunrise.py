@@ -41,22 +41,30 @@ THREADS = 2
 
 
 def time_to(points):
-    """Seconds to reach TARGET from (seconds, error) points sorted by time: log-log
-    interpolation between the bracketing pair (extrapolation from the last two)."""
+    """Seconds to reach TARGET from (seconds, error, setting) points: log-log interpolation
+    between the bracketing pair of the points sorted by time (extrapolation from the last
+    two); None where the error stops falling short of the target (a denoiser's bias)."""
+    points = sorted(points)
     for (t0, e0, _), (t1, e1, _) in zip(points, points[1:]):
         if e1 <= TARGET or (t1, e1) == points[-1][:2]:
+            if e0 <= TARGET:
+                return t0, float("nan")
             slope = np.log(e1 / e0) / np.log(t1 / t0)
+            if not slope < -0.05:
+                return None, float(slope)
             return float(t0 * (TARGET / e0) ** (1 / slope)), float(slope)
     raise ValueError("need at least two points")
 
 
-def render_cycles(bpy, volpath, scene, frame, tmp, spp, seed):
-    """Cycles on the CPU at THREADS threads, no denoising or adaptive sampling: (image,
-    seconds of the render call)."""
+def render_cycles(bpy, volpath, scene, frame, tmp, spp, seed, denoise=False):
+    """Cycles on the CPU at THREADS threads, no adaptive sampling; with ``denoise``, Open
+    Image Denoise with albedo and normal: (image, seconds of the render call)."""
     c = scene.cycles
     scene.render.engine = "CYCLES"
     c.device, c.samples, c.seed = "CPU", spp, seed
-    c.use_denoising, c.use_adaptive_sampling = False, False
+    c.use_denoising, c.use_adaptive_sampling = denoise, False
+    if denoise:
+        c.denoiser, c.denoising_input_passes, c.denoising_prefilter = "OPENIMAGEDENOISE", "RGB_ALBEDO_NORMAL", "ACCURATE"
     c.volume_bounces = 16  # Volpath's paths are unlimited; Cycles' default is single scattering
     scene.render.threads_mode, scene.render.threads = "FIXED", THREADS
     scene.frame_set(frame)
@@ -117,65 +125,68 @@ def main():
         animation = os.path.join(tmp, "scene")
         export_animation(scene, [args.frame], animation)
 
-        def volpath_render(spp, seed):
+        def volpath_render(setting, seed, target_error=False, denoise=False):
+            spp, target = (REF_SPP, setting) if target_error else (setting, None)
             start = time.perf_counter()
-            image, _ = render_frame(animation, args.frame, spp, tracer="null_scattering", seed=seed, threads=THREADS)
+            image, _ = render_frame(animation, args.frame, spp, tracer="null_scattering", seed=seed, threads=THREADS,
+                                    target_error=target, denoise=denoise)
             return image, time.perf_counter() - start
 
-        def cycles_render(spp, seed):
-            return render_cycles(bpy, volpath, scene, args.frame, tmp, spp, seed)
+        def cycles_render(spp, seed, denoise=False):
+            return render_cycles(bpy, volpath, scene, args.frame, tmp, spp, seed, denoise)
 
-        for name, fn in (("Volpath", volpath_render), ("Cycles 5.0", cycles_render)):
-            fn(4, 99)  # warm-up: kernels, BVH, caches
-            reference, ref_seconds = fn(REF_SPP, 12345)
-            exposure = video.auto_exposure([reference], [0])[0]
-            shown = video.display(reference, exposure)
+        for name, renderer, fn, ladder, kw in VARIANTS(volpath_render, cycles_render):
+            if renderer not in results:
+                fn(4, 99)  # warm-up: kernels, BVH, caches
+                reference, ref_seconds = fn(REF_SPP, 12345)
+                exposure = video.auto_exposure([reference], [0])[0]
+                results[renderer] = (exposure, video.display(reference, exposure), {})
+            exposure, shown, rows = results[renderer]
             points = []
-            for spp in LADDER:
-                image, seconds = fn(spp, spp)
-                points.append((seconds, float(np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2))), spp))
-            results[name] = (time_to(points), points, ref_seconds, video.display(reference, exposure))
-    rows = []
-    best_other = results["Cycles 5.0"][0][0]
-    for name, ((t, slope), points, ref_seconds, _) in results.items():
-        ladder = "; ".join(f"{spp} spp: {s:.2f} s, {e:.4f}" for s, e, spp in points)
-        rows.append(f"| {name} | {t:.2f} s | {3600 / t:.0f} | t^{slope:.2f} | {t / best_other:.2f}x | {ladder} |")
-    if args.sky:
-        side_by_side = np.concatenate([results["Cycles 5.0"][3], results["Volpath"][3]], axis=1)
-        video.write_png(os.path.join(ROOT, "docs", "sky_cycles_volpath.png"),
-                        np.round(side_by_side * 255).astype(np.uint8))
-    what = (f"The sky alone (`--sky`): Sky Texture, multiple scattering, sun 2° up, camera 2 m up looking "
-            f"60° away from the sun, at {args.res}" if args.sky else f"Frame {args.frame} of the default sunrise at "
-            f"{args.res}")
-    title = ("Sunrise sky: Volpath against Cycles' Sky Texture (issue #4" if args.sky
-             else "Sunrise frame: Volpath against Cycles (issue #7")
-    section = (f"\n## {title}; `bench/cycles_sunrise.py`)\n\n"
-               f"{what}, {THREADS} threads, each renderer "
+            for setting in ladder:
+                image, seconds = fn(setting, 7, **kw)
+                points.append((seconds, float(np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2))), setting))
+            rows[name] = (time_to(points), points, kw)
+    table, best = [], {}
+    cycles = results["Cycles 5.0"][2]
+    for renderer, (_, _, rows) in results.items():
+        for name, ((t, slope), points, kw) in rows.items():
+            pair = "Cycles 5.0, OIDN" if kw.get("denoise") else "Cycles 5.0"
+            ratio = t / cycles[pair][0][0] if t and cycles[pair][0][0] else None
+            if renderer == "Volpath" and ratio is not None:
+                key = "denoised" if kw.get("denoise") else "plain"
+                best[key] = min(best.get(key, np.inf), ratio)
+            unit = (lambda x: f"target {x}") if "target_error" in kw else (lambda x: f"{x} spp")
+            ladder = "; ".join(f"{unit(x)}: {s:.2f} s, {e:.4f}" for s, e, x in points)
+            table.append(f"| {name} | {'not reached' if t is None else f'{t:.2f} s'} | "
+                         f"{'–' if ratio is None else f'{ratio:.2f}x'} ({pair}) | t^{slope:.2f} | {ladder} |")
+    section = (f"\n## Sunrise frame: Volpath against Cycles (issues #7, #33; `bench/cycles_sunrise.py`)\n\n"
+               f"Frame {args.frame} of the default sunrise at {args.res}, {THREADS} threads, each renderer "
                f"against its own {REF_SPP}-spp reference (their skies differ: Cycles' Sky Texture is a "
-               f"precomputed map with an undimmed sun lamp, Volpath traces the atmosphere). Time per frame "
-               f"to an RMSE of {TARGET} in display units (tone-mapped as the video is), interpolated over "
-               f"{', '.join(map(str, LADDER))} spp.\n\n"
-               "| renderer | seconds per frame | frames per hour | error vs time | time / Cycles | ladder (spp: seconds, RMSE) |\n"
-               "|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
-    ratio = results["Volpath"][0][0] / best_other
-    if args.sky:
-        section += (f"\nReading: Volpath needs {ratio:.1f}x Cycles' time. Cycles looks the sky up in a table it "
-                    "precomputes from its own multiple-scattering model (no path is traced through the air, so "
-                    f"its error is the pixel sampling's alone); Volpath path-traces the atmosphere (error falling "
-                    f"as t^{results['Volpath'][0][1]:.2f}). The skies also differ in model: Cycles' table against "
-                    "Volpath's Bruneton air (docs/sky_cycles_volpath.png: Cycles left, Volpath right, each at its "
-                    "own exposure).\n")
-        publish(section, args.append)
-        return
-    section += (f"\nReading: Volpath needs {ratio:.1f}x Cycles' time per frame, but the two do not do the same "
-                "work: Cycles' sky is a radiance map precomputed once (with the scene sync, most of its time at "
-                "low spp), so only the fog and the surfaces are path traced, while Volpath traces every sky "
-                f"path through the atmosphere (its error falls as t^{results['Volpath'][0][1]:.2f}: long random walks "
-                "in the air, where the low-discrepancy sampler gains little: the guided free flight makes single "
-                "scattering nearly noise-free, multiply scattered light is most of what is left; the slope is also "
-                "flattened by the noise of Volpath's own reference). A better estimator of multiple scattering "
-                "(issues #4, #12), not a faster loop, is what would close the gap.\n")
+               "precomputed map with an undimmed sun lamp, Volpath traces the atmosphere). Time per frame "
+               f"(Volpath's includes loading the scene) to an RMSE of {TARGET} in display units (tone-mapped as "
+               "the video is), interpolated in log-log over each row's ladder; denoised rows against the other "
+               "renderer's denoised row, the others against plain Cycles.\n\n"
+               "| renderer | seconds per frame | time / Cycles | error vs time | ladder (setting: seconds, RMSE) |\n"
+               "|---|---|---|---|---|\n" + "\n".join(table) + "\n")
+    section += (f"\nReading: without denoising on either side Volpath's best needs {best.get('plain', np.nan):.2f}x "
+                f"Cycles' time per frame (issue #33's target: 0.5x); with denoising on both sides "
+                f"{best.get('denoised', np.nan):.2f}x. Cycles' sky is a radiance map precomputed once, so only "
+                "the fog and the surfaces are path traced, while Volpath traces every sky path through the "
+                "atmosphere; Cycles' time at low spp is mostly its fixed cost (scene sync).\n")
     publish(section, args.append)
+
+
+def VARIANTS(volpath_render, cycles_render):
+    """(row, renderer, render(setting, seed, **kw), ladder, kw): fixed spp, rendering to a
+    target error, and denoising, for both renderers where they have it."""
+    return (("Volpath", "Volpath", volpath_render, LADDER, {}),
+            ("Volpath, target error", "Volpath", volpath_render, (0.04, 0.02, 0.01), {"target_error": True}),
+            ("Volpath, denoised", "Volpath", volpath_render, (4, 16, 64), {"denoise": True}),
+            ("Volpath, target error, denoised", "Volpath", volpath_render, (0.08, 0.04, 0.02),
+             {"target_error": True, "denoise": True}),
+            ("Cycles 5.0", "Cycles 5.0", cycles_render, LADDER, {}),
+            ("Cycles 5.0, OIDN", "Cycles 5.0", cycles_render, (1, 4, 16), {"denoise": True}))
 
 
 def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):

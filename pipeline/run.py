@@ -33,6 +33,7 @@ from . import video
 class Options:
     spp: int = 16                  # samples per pixel, or the cap with target_error
     target_error: float = 0.0      # > 0: each frame to this display error (volpath.render's target_error)
+    denoise: bool = False          # Intel Open Image Denoise on each frame (volpath.render's denoise)
     tracer: str = "auto"
     workers: int = 0               # local processes (0: one per core)
     threads: int = 0               # threads per frame (0: cores / workers locally, 1 on Dask)
@@ -70,6 +71,8 @@ def valid_frame(path, frame, shape, options):
     try:
         image, meta = volpath.read_exr(path, metadata=True)
     except (OSError, ValueError):
+        return False
+    if bool(meta.get("denoised", 0)) != options.denoise:
         return False
     if options.target_error:  # EXR metadata holds it as float32
         same = meta.get("spp_cap") == options.spp and np.float32(meta.get("target_error", 0)) == np.float32(options.target_error)
@@ -154,7 +157,8 @@ class Run:
 
     def _args(self, frame, source, threads):
         o = self.options
-        return (source, frame, o.spp, o.tracer, None, threads, frame in o.fail_frames, o.target_error or None)
+        return (source, frame, o.spp, o.tracer, None, threads, frame in o.fail_frames, o.target_error or None,
+                o.denoise)
 
     def _render_local(self, todo, bar):
         cores = os.cpu_count() or 1

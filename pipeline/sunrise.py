@@ -91,6 +91,8 @@ def parser():
     p.add_argument("--target-error", type=_display_error, metavar="E",
                    help="render each frame to this RMS error of the displayed frame, in display units 0..1 "
                         "(e.g. 0.02; default: the scene's Noise Threshold, 0 = off: fixed spp)")
+    p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
+                   help="denoise each frame with Intel Open Image Denoise (default: the scene's Denoise setting)")
     p.add_argument("--tracer", type=_tracer, help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)")
     p.add_argument("--out", default=os.path.join("out", "sunrise"), help="output directory (default: out/sunrise)")
     p.add_argument("--fps", type=_count(1), default=24, help="video frame rate (default: 24)")
@@ -136,7 +138,8 @@ def main(argv=None):
         s = scene.volpath
         target = args.target_error if args.target_error is not None else \
             (s.adaptive_threshold if s.use_adaptive_sampling else 0.0)
-        options = Options(spp=args.spp or s.spp, target_error=target, tracer=args.tracer or s.tracer,
+        denoise = s.use_denoising if args.denoise is None else args.denoise
+        options = Options(spp=args.spp or s.spp, target_error=target, denoise=denoise, tracer=args.tracer or s.tracer,
                           workers=args.workers, threads=args.threads, scheduler=args.scheduler,
                           resume=args.resume, fps=args.fps, exposure=args.exposure)
         options.check()

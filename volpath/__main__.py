@@ -49,7 +49,7 @@ def _render(args, parser):
     start = time.perf_counter()
     try:
         image = render(scene, spp=spp, seed=args.seed, threads=args.threads, tracer=tracer, progress=progress,
-                       max_depth=args.max_depth, target_error=target, status=status)
+                       max_depth=args.max_depth, target_error=target, status=status, denoise=args.denoise)
     finally:
         bar.close()
     seconds = time.perf_counter() - start
@@ -59,13 +59,15 @@ def _render(args, parser):
         tracer = stats["tracer"]
         print(f"auto: {tracer}: " + "; ".join(stats["auto"]["reasons"]))
     metadata = {"volpath_version": __version__, "spp": spp, "tracer": tracer, "seed": args.seed, "seconds": seconds,
-                "nonfinite_samples": stats["nonfinite_samples"], "negative_samples": stats["negative_samples"]}
+                "nonfinite_samples": stats["nonfinite_samples"], "negative_samples": stats["negative_samples"],
+                "denoised": int(args.denoise)}
     samples = f"{spp} spp"
     if target:
         metadata.update(target_error=target, error=stats["error"], spp_mean=stats["spp_mean"])
         samples = (f"error {100 * stats['error']:.2g} % (target {100 * target:g} %), {stats['spp_min']}-{spp} spp "
                    f"(mean {stats['spp_mean']:.0f})")
     write_exr(out, image, metadata=metadata)
+    samples += ", denoised" if args.denoise else ""
     print(f"{out}: {scene.width}x{scene.height}, {samples}, tracer {tracer}, {seconds:.2f} s, "
           f"{stats['nonfinite_samples']} non-finite samples discarded, {stats['negative_samples']} negative "
           f"samples clamped ({stats['clamped_share']:.1e} of the light)")
@@ -120,6 +122,8 @@ def main(argv=None):
     r.add_argument("--target-error", type=float, metavar="E",
                    help="render until the displayed image's RMS error is E, in display units 0..1 "
                         "(e.g. 0.01; volpath/adaptive.py defines it)")
+    r.add_argument("--denoise", action="store_true", help="denoise with Intel Open Image Denoise (less noise, "
+                                                          "some bias: off by default)")
     r.add_argument("--tracer", choices=("auto",) + TRACERS, help="default: the scene's (usually auto)")
     r.add_argument("--threads", type=int, help="default: all cores")
     r.add_argument("--seed", type=int, default=0)

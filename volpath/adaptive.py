@@ -126,9 +126,11 @@ def _even(n, down=False):
     return n - n % 2 if down else n + n % 2
 
 
-def render_adaptive(native, args, target, max_spp, exposure, progress, status, out, sobol):
-    """Rounds of native renders until every block meets ``target`` or ``max_spp``; returns
-    (image, stats) as _core.render does, with the achieved error and the spp taken."""
+def render_adaptive(native, args, target, max_spp, exposure, progress, status, out, sobol, features=None):
+    """Rounds of native renders until the image's error is ``target`` or every block is at
+    ``max_spp``; returns (image, stats, samples per pixel): the image and stats as
+    _core.render gives them, with the achieved error and the spp taken. ``features`` (the
+    denoiser's passes) are summed over all rounds."""
     spp_unused, seed, threads, *tracer_args = args
     height, width = native.height, native.width
     state = Adaptive(height, width, target, max_spp, exposure)
@@ -150,7 +152,7 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
 
         starts = state.taken.copy()
         image, s = _core.render(native, 2, seed, threads, *tracer_args, report, None, sobol, 0, starts, counts,
-                                state.halves)
+                                state.halves, features)
         rounds += 1
         state.taken += counts
         stats["seconds"] += s["seconds"]
@@ -175,7 +177,7 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
     if out is not None:
         out[...] = image
         image = out
-    return image, stats
+    return image, stats, spp
 
 
 def describe(status):

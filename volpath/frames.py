@@ -119,10 +119,12 @@ def frame_dictionary(d, animation, entry):
     return d
 
 
-def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fail=False, target_error=None):
+def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fail=False, target_error=None,
+                 denoise=False):
     """Render one frame; returns (image, metadata). The seed defaults to the frame number,
     so a frame is the same bits wherever and however often it is rendered. With
-    ``target_error`` the frame renders to that display error and ``spp`` is the cap."""
+    ``target_error`` the frame renders to that display error and ``spp`` is the cap;
+    ``denoise`` passes it through Intel Open Image Denoise."""
     from . import __version__
     from .render import render
     from .scene import load_dict
@@ -137,13 +139,13 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fai
     start = time.perf_counter()
     scene = load_dict(frame_dictionary(d, animation, entry), base_dir=directory, source=f"frame {frame}")
     image = render(scene, spp=spp, seed=frame if seed is None else seed, threads=threads, tracer=tracer,
-                   target_error=target_error)
+                   target_error=target_error, denoise=denoise)
     stats = scene.last_render
     sun = next(iter(entry["suns"].values()), None)
     metadata = {"frame": int(frame), "spp": int(stats["spp"]), "tracer": stats["tracer"], "seed": int(stats["seed"]),
                 "seconds": float(time.perf_counter() - start), "render_seconds": float(stats["seconds"]),
                 "nonfinite_samples": int(stats["nonfinite_samples"]), "negative_samples": int(stats["negative_samples"]),
-                "volpath_version": __version__}
+                "volpath_version": __version__, "denoised": int(bool(denoise))}
     if target_error is not None:
         metadata.update(target_error=float(target_error), error=float(stats["error"]), spp_cap=int(spp),
                         spp_mean=float(stats["spp_mean"]))

@@ -1,12 +1,14 @@
 """Rendering: ``render(scene, ...)`` returns linear radiance as a float32 numpy array."""
 
 import os
+import time
 
 import numpy as np
 
 from . import _core
 from .adaptive import render_adaptive
 from .auto import choose_tracer
+from .denoise import denoise as oidn
 from .errors import RenderCancelled
 from .scene import TRACERS
 from .spectral import Film
@@ -17,7 +19,8 @@ MAX_SPP = 1024  # the cap of a render to a target error when no spp is given
 
 
 def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
-           out=None, sampler="sobol", light_distances=None, target_error=None, exposure=None, status=None):
+           out=None, sampler="sobol", light_distances=None, target_error=None, exposure=None, status=None,
+           denoise=False):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``); in spectral
@@ -54,6 +57,11 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
                estimate after the last round), "target", "spp" (mean so far), "seconds" and
                "seconds_left" (None until a round has been timed)
 
+    denoise    pass the image through Intel Open Image Denoise (``pip install pyoidn``) with
+               the albedo and normal of the first surface each pixel sees: far less noise,
+               some bias (off by default; docs/accuracy.md measures both). With
+               target_error, the error is the noisy image's, which the denoiser lowers
+
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
     Statistics are left in ``scene.last_render``: seconds, non-finite samples discarded, and
     negative samples: only the air's control variates can give one (about one sample in
@@ -80,34 +88,40 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     spp = per_pass * max(len(scene.passes), 1)
     args = (per_pass, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth,
             scene.max_null_collisions, scene.light_distances if light_distances is None else bool(light_distances))
+    features = np.zeros((scene.height, scene.width, 2, 3)) if denoise else None
+    samples = per_pass
     if target_error is not None:
         if scene.passes:
             raise ValueError("target_error is not available in spectral mode yet: give spp instead")
-        image, stats = render_adaptive(scene.native, args, target_error, spp, exposure, progress, status, out,
-                                       sampler == "sobol")
+        image, stats, samples = render_adaptive(scene.native, args, target_error, spp, exposure, progress, status,
+                                                out, sampler == "sobol", features)
         spp = stats["spp_max"]
     elif scene.passes:
-        image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol")
+        image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol", features)
     else:
-        image, stats = _core.render(scene.native, *args, progress, out, sampler == "sobol")
+        image, stats = _core.render(scene.native, *args, progress, out, sampler == "sobol", features=features)
+    if denoise and not stats["cancelled"]:
+        start = time.perf_counter()
+        image[...] = oidn(image, features, samples)
+        stats["denoise_seconds"] = time.perf_counter() - start
     stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth, sampler=sampler,
-                 threads=threads or os.cpu_count(), auto=auto)
+                 threads=threads or os.cpu_count(), auto=auto, denoised=bool(denoise))
     scene.last_render = stats
     if stats["cancelled"]:
         raise RenderCancelled(image)
     return image
 
 
-def _render_spectral(passes, args, progress, out, sobol):
+def _render_spectral(passes, args, progress, out, sobol, features):
     """The passes of a spectral scene, integrated into linear sRGB (volpath/spectral.py).
     Pass k renders the pixel samples k n .. (k + 1) n - 1 (n = args[0]): together the passes
     are the samples of one render at n * passes spp, each path carrying its pass's three
-    wavelengths."""
+    wavelengths. The denoiser's ``features`` come from the first pass."""
     film = Film(len(passes))
     stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
     for k, native in enumerate(passes):
         report = None if progress is None else (lambda f, k=k: progress((k + f) / len(passes)))
-        image, s = _core.render(native, *args, report, None, sobol, k * args[0])
+        image, s = _core.render(native, *args, report, None, sobol, k * args[0], features=None if k else features)
         stats["seconds"] += s["seconds"]
         for key in ("nonfinite_samples", "negative_samples"):
             stats[key] += s[key]

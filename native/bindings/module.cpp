@@ -107,7 +107,7 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
 py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
                     int rr_depth, int max_null_collisions, bool light_distances, py::object progress_cb,
                     py::object out, bool low_discrepancy, uint64_t first_sample, py::object starts,
-                    py::object counts, py::object halves) {
+                    py::object counts, py::object halves, py::object features) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -134,6 +134,7 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     settings.starts = pixel_array(starts, "starts", {h, w}, static_cast<uint32_t *>(nullptr));
     settings.counts = pixel_array(counts, "counts", {h, w}, static_cast<uint32_t *>(nullptr));
     settings.halves = pixel_array(halves, "halves", {h, w, 2, 3}, static_cast<double *>(nullptr));
+    settings.features = pixel_array(features, "features", {h, w, 2, 3}, static_cast<double *>(nullptr));
 
     // Rendering into a caller's array lets a progress callback show finished tiles.
     py::array_t<float> image;
@@ -411,7 +412,7 @@ PYBIND11_MODULE(_core, m) {
           py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
           py::arg("light_distances") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
           py::arg("low_discrepancy") = true, py::arg("first_sample") = 0, py::arg("starts") = py::none(),
-          py::arg("counts") = py::none(), py::arg("halves") = py::none());
+          py::arg("counts") = py::none(), py::arg("halves") = py::none(), py::arg("features") = py::none());
 
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.

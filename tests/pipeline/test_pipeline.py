@@ -72,6 +72,18 @@ def test_frames_to_a_target_error_report_it_and_resume_by_it(tmp_path):
     assert r.returncode == 2 and "display error" in r.stderr
 
 
+def test_denoised_frames_say_so_and_resume_by_it(tmp_path):
+    blend = tiny_animation(tmp_path / "tiny.blend", frames=2)
+    out = tmp_path / "out"
+    r = cli("--blend", blend, "--out", out, "--denoise", "--workers", 1)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert [volpath.read_exr(out / "frames" / f"frame_{f:04d}.exr", metadata=True)[1]["denoised"] for f in (1, 2)] == [1, 1]
+    cli("--blend", blend, "--out", out, "--denoise", "--resume", "--workers", 1)
+    assert [s["status"] for s in json.loads((out / "summary.json").read_text())["frames"].values()] == ["kept"] * 2
+    cli("--blend", blend, "--out", out, "--no-denoise", "--resume", "--workers", 1)
+    assert [s["status"] for s in json.loads((out / "summary.json").read_text())["frames"].values()] == ["rendered"] * 2
+
+
 def test_blender_entry_point(tmp_path):
     """`blender -b tiny.blend --python pipeline/sunrise.py -- ...`: Blender runs the file as
     __main__ with the .blend open and its own arguments before `--` (simulated with the

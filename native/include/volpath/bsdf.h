@@ -46,6 +46,9 @@ struct BSDFSample {
 inline bool is_null(const BSDF &b) { return std::holds_alternative<NullBSDF>(b.model); }
 inline bool is_delta(const BSDF &b) { return std::holds_alternative<DielectricBSDF>(b.model); }
 
+// The colour a denoiser's albedo pass holds for the surface: its diffuse reflectance, or
+// white where it reflects or transmits specularly.
+Spectrum bsdf_albedo(const BSDF &bsdf);
 // f(wi, wo) * |cos wo|.
 Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo);
 Real bsdf_pdf(const BSDF &bsdf, Vec3 wi, Vec3 wo);

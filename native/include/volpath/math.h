@@ -125,4 +125,10 @@ struct Ray {
 // because double-precision intersection error grows with it.
 inline Real ray_epsilon(const Vec3 &p) { return 1e-11 + 1e-9 * max_component(abs(p)); }
 
+// A ray that leaves a surface point on the side of `d` (n = 0 for points in a medium).
+inline Ray spawn_ray(const Vec3 &p, const Vec3 &n, const Vec3 &d, Real t_max = kInfinity) {
+    const Real side = dot(d, n) >= 0 ? 1.0 : -1.0;
+    return Ray{p + n * (side * ray_epsilon(p)), d, 0, t_max};
+}
+
 }  // namespace volpath

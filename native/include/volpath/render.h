@@ -24,6 +24,9 @@ struct RenderSettings {
     // (the even ones are the seed's own), so the halves' difference estimates the
     // variance of their mean without bias, stratified sampling or not.
     double *halves = nullptr;
+    // A denoiser's auxiliary passes (per pixel: albedo RGB and normal xyz of the first
+    // surface, see first_surface, 6 doubles summed over the samples, added to), or null.
+    double *features = nullptr;
 };
 
 struct RenderProgress {
@@ -42,6 +45,16 @@ struct RenderStats {
     double clamped_share = 0;
     bool cancelled = false;
 };
+
+// What a denoiser's albedo and normal passes hold for a camera ray: the first surface it
+// meets through index-matched boundaries (media are looked through), its albedo
+// (bsdf_albedo) and world-space shading normal facing the ray; white and no normal where
+// the ray leaves the scene or meets an emitter.
+struct SurfaceFeatures {
+    Spectrum albedo{1.0};
+    Vec3 normal{0.0};
+};
+SurfaceFeatures first_surface(const Scene &scene, Ray ray);
 
 // Renders into `image` (height * width * 3 floats, row-major, linear RGB): each pixel's
 // mean over the samples it took in this call.

@@ -157,6 +157,16 @@ void flip_to_front(const BSDF &b, Vec3 &wi, Vec3 &wo) {
 
 }  // namespace
 
+Spectrum bsdf_albedo(const BSDF &bsdf) {
+    struct Albedo {
+        Spectrum operator()(const NullBSDF &) const { return Spectrum(0.0); }
+        Spectrum operator()(const DiffuseBSDF &b) const { return b.reflectance; }
+        Spectrum operator()(const DielectricBSDF &) const { return Spectrum(1.0); }
+        Spectrum operator()(const RoughPlasticBSDF &b) const { return b.diffuse; }
+    };
+    return std::visit(Albedo{}, bsdf.model);
+}
+
 Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo) {
     flip_to_front(bsdf, wi, wo);
     return std::visit(Eval{wi, wo}, bsdf.model);

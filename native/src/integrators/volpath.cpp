@@ -9,12 +9,6 @@ namespace volpath {
 
 namespace {
 
-// A ray that leaves a surface point on the side of `d` (n = 0 for points in a medium).
-Ray spawn_ray(const Vec3 &p, const Vec3 &n, const Vec3 &d, Real t_max = kInfinity) {
-    const Real side = dot(d, n) >= 0 ? 1.0 : -1.0;
-    return Ray{p + n * (side * ray_epsilon(p)), d, 0, t_max};
-}
-
 int medium_after_crossing(const ShapeInfo &shape, const Vec3 &d, const Vec3 &n, int current) {
     if (!shape.medium_interface) return current;
     return dot(d, n) > 0 ? shape.exterior : shape.interior;

@@ -37,6 +37,19 @@ uint64_t half_seed(uint64_t seed, uint64_t half) { return half ? mix64(seed ^ 0x
 
 }  // namespace
 
+SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
+    for (int crossing = 0; crossing < 256; ++crossing) {
+        Intersection its;
+        if (!scene.intersect(ray, its)) break;
+        const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
+        if (shape.light >= 0) break;
+        if (shape.bsdf >= 0 && !is_null(scene.bsdfs[size_t(shape.bsdf)]))
+            return {bsdf_albedo(scene.bsdfs[size_t(shape.bsdf)]), dot(its.ns, ray.d) > 0 ? -its.ns : its.ns};
+        ray = spawn_ray(its.p, its.n, ray.d);
+    }
+    return {};
+}
+
 RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
                    RenderProgress &progress) {
     const auto start = std::chrono::steady_clock::now();
@@ -67,7 +80,8 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                     const int64_t count = samples_of(pixel);
                     if (count == 0) continue;
                     const uint64_t first = settings.first_sample + (settings.starts ? settings.starts[pixel] : 0);
-                    Spectrum sum[2] = {Spectrum(0.0), Spectrum(0.0)};
+                    Spectrum sum[2] = {Spectrum(0.0), Spectrum(0.0)}, albedo(0.0);
+                    Vec3 normal(0.0);
                     for (int64_t s = 0; s < count; ++s) {
                         // A pixel of many samples must not delay a cancel.
                         if ((s & 63) == 63 && progress.cancel.load(std::memory_order_relaxed)) break;
@@ -76,6 +90,10 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                                         settings.low_discrepancy);
                         const Vec2 o = filter_offset(cam, sampler);
                         const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);
+                        if (settings.features) {
+                            const SurfaceFeatures f = first_surface(scene, ray);
+                            albedo += f.albedo, normal += f.normal;
+                        }
                         const Spectrum L = radiance(scene, ray, cam.medium, sampler, settings.tracer);
                         if (!is_finite(L)) {
                             ++local_nonfinite;
@@ -97,6 +115,11 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                         double *h = settings.halves + pixel * 6;
                         h[0] += sum[0].x, h[1] += sum[0].y, h[2] += sum[0].z;
                         h[3] += sum[1].x, h[4] += sum[1].y, h[5] += sum[1].z;
+                    }
+                    if (settings.features) {
+                        double *f = settings.features + pixel * 6;
+                        f[0] += albedo.x, f[1] += albedo.y, f[2] += albedo.z;
+                        f[3] += normal.x, f[4] += normal.y, f[5] += normal.z;
                     }
                 }
             }
