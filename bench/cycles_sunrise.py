@@ -41,14 +41,18 @@ THREADS = 2
 
 
 def time_to(points):
-    """Seconds to reach TARGET from (seconds, error, setting) points: log-log interpolation
-    between the bracketing pair of the points sorted by time (extrapolation from the last
-    two); None where the error stops falling short of the target (a denoiser's bias)."""
-    points = sorted(points)
+    """Seconds to reach TARGET from (seconds, error, setting) points in the ladder's order
+    (ever more work): log-log interpolation between the pair whose errors bracket it, or
+    the cheaper of the two where the more accurate one took no longer (a fixed cost hides
+    the samples' cost); extrapolation from the last two; None where the error stops
+    falling short of the target (a denoiser's bias). Returns (seconds, error-vs-time slope)."""
+    t0, e0, _ = points[0]
+    if e0 <= TARGET:
+        return t0, float("nan")
     for (t0, e0, _), (t1, e1, _) in zip(points, points[1:]):
         if e1 <= TARGET or (t1, e1) == points[-1][:2]:
-            if e0 <= TARGET:
-                return t0, float("nan")
+            if t1 <= t0:
+                return (t1, float("nan")) if e1 <= TARGET else (None, float("nan"))
             slope = np.log(e1 / e0) / np.log(t1 / t0)
             if not slope < -0.05:
                 return None, float(slope)
@@ -159,7 +163,7 @@ def main():
             unit = (lambda x: f"target {x}") if "target_error" in kw else (lambda x: f"{x} spp")
             ladder = "; ".join(f"{unit(x)}: {s:.2f} s, {e:.4f}" for s, e, x in points)
             table.append(f"| {name} | {'not reached' if t is None else f'{t:.2f} s'} | "
-                         f"{'–' if ratio is None else f'{ratio:.2f}x'} ({pair}) | t^{slope:.2f} | {ladder} |")
+                         f"{'–' if ratio is None else f'{ratio:.2f}x'} ({pair}) | {'–' if np.isnan(slope) else f't^{slope:.2f}'} | {ladder} |")
     section = (f"\n## Sunrise frame: Volpath against Cycles (issues #7, #33; `bench/cycles_sunrise.py`)\n\n"
                f"Frame {args.frame} of the default sunrise at {args.res}, {THREADS} threads, each renderer "
                f"against its own {REF_SPP}-spp reference (their skies differ: Cycles' Sky Texture is a "

@@ -628,6 +628,14 @@ PYBIND11_MODULE(_core, m) {
         }
         return py::make_tuple(tau, t_out, pdf);
     });
+    // Where local shapes may shadow the sun along a ray (Scene::local_sun_shadow), with the
+    // bounds it tests; (inf, -inf) for none.
+    m.def("local_sun_shadow", [](Scene &s, Array3 o, Array3 d, double t0, double t1) {
+        if (!s.built) s.build();
+        const auto [a, b] = s.local_sun_shadow(Ray{vec(o), normalize(vec(d))}, t0, t1);
+        const Bounds &box = s.local_bounds;
+        return py::make_tuple(a, b, py::make_tuple(box.lo.x, box.lo.y, box.lo.z), py::make_tuple(box.hi.x, box.hi.y, box.hi.z));
+    });
     // The light model of one guided segment (AirSegment::light_model at distances ts, and its
     // integral), with or without the sky map's scattered light.
     m.def("air_light_model", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts,

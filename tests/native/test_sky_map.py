@@ -14,13 +14,23 @@ R = 6360e3
 
 
 def sky(elevation=2.0, origin="0, 2, 0", target="0.5, 2.3, -1", res=8, fov=40, spp=16, max_depth=-1,
-        flight="guided", azimuth=120):
-    """The Bruneton air alone (ground and top spheres), one sun."""
+        flight="guided", azimuth=120, extra=""):
+    """The Bruneton air alone (ground and top spheres), one sun, and `extra` shapes."""
     cam = S.camera(res=res, fov=fov, origin=origin, target=target, spp=spp, extra='<float name="far_clip" value="1e9"/>')
     air = f'<medium type="atmosphere" id="air"><string name="free_flight" value="{flight}"/></medium>'
     sun = (f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
            f'<float name="azimuth" value="{azimuth}"/></emitter>')
-    return volpath.load_string(S.scene(cam, air, sun, max_depth=max_depth))
+    return volpath.load_string(S.scene(cam, air, sun, extra, max_depth=max_depth))
+
+
+# A hill beside the camera that shadows part of the low air, and a bank of fog in the air
+# above it (a homogeneous medium in a box: its boundary and its shadow are local too).
+HILL_AND_FOG = """
+    <shape type="cube"><transform name="to_world"><scale x="300" y="60" z="300"/><translate x="150" y="0" z="-600"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.25, 0.1"/></bsdf></shape>
+    <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.01"/><float name="albedo" value="0.95"/></medium>
+    <shape type="cube"><transform name="to_world"><scale x="200" y="40" z="200"/><translate x="0" y="120" z="-900"/></transform>
+        <bsdf type="null"/><ref name="interior" id="fog"/><ref name="exterior" id="air"/></shape>"""
 
 
 def sky_map(scene, p, d_in=(0, 0, -1), dirs=None, us=None):
@@ -137,6 +147,49 @@ def test_control_variates_leave_the_sky_unbiased(elevation, max_depth):
     se_b = np.sqrt((sb ** 2).sum(axis=(0, 1))) / sb[..., 0].size
     assert np.all(np.abs(mean_a - mean_b) < 4 * np.sqrt(se_a ** 2 + se_b ** 2)), (mean_a, mean_b, se_a, se_b)
     assert np.mean(sb) < 0.25 * np.mean(sa), (np.mean(sb), np.mean(sa))  # 0.5x at equal spp
+
+
+def test_local_sun_shadow_is_where_rays_toward_the_sun_meet_the_local_bounds():
+    """Scene::local_sun_shadow against brute force: along random rays, the distances whose
+    rays toward the sun enter the bounds of the hill and the fog (a slab test at 4001
+    points) are those of the interval, to the spacing of the points."""
+    rng = np.random.default_rng(11)
+    for elevation, azimuth in ((2, 120), (-3, 40), (35, 200), (0, 90)):
+        scene = sky(elevation=elevation, azimuth=azimuth, extra=HILL_AND_FOG)
+        s = np.asarray(scene.summary["emitters"][0]["to_sun"])
+        for _ in range(25):
+            o = rng.uniform([-1500, -50, -2000], [1500, 400, 500])
+            d = rng.normal(size=3)
+            d /= np.linalg.norm(d)
+            t = np.linspace(0, 3000, 4001)
+            a, b, lo, hi = _core.local_sun_shadow(scene.native, tuple(o), tuple(d), 0.0, 3000.0)
+            assert lo == pytest.approx((-200, -60, -1100)) and hi == pytest.approx((450, 160, -300))  # hill and fog
+            p = o + t[:, None] * d
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_lo, t_hi = (np.array(lo) - p) / s, (np.array(hi) - p) / s
+            near = np.max(np.minimum(t_lo, t_hi), axis=1)
+            far = np.min(np.maximum(t_lo, t_hi), axis=1)
+            meets = (near <= far) & (far >= 0)
+            inside = (t >= a - 1) & (t <= b + 1)
+            assert np.all(inside[meets]), (elevation, o, d, a, b)
+            assert not np.any(meets[(t < a - 1) | (t > b + 1)])
+
+
+@pytest.mark.parametrize("elevation", [2, 25])
+def test_control_variates_past_local_shapes_leave_the_sky_unbiased(elevation):
+    """With a hill and a fog bank in the air, the models serve only where the sun's rays
+    miss them (the guided flight cuts its segments there): the sky against delta tracking,
+    as above, the camera looking over the hill, through the fog's shadow, at the sky."""
+    res = {}
+    for flight, spp in (("tracking", 2048), ("guided", 512)):
+        scene = sky(elevation=elevation, flight=flight, spp=spp, target="0.3, 2.1, -1", extra=HILL_AND_FOG)
+        res[flight] = render_batches(volpath.render, scene, 8, block=2)
+    (a, sa), (b, sb) = res["tracking"], res["guided"]
+    assert max_z(a, sa, b, sb) < 5
+    mean_a, mean_b = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
+    se_a = np.sqrt((sa ** 2).sum(axis=(0, 1))) / sa[..., 0].size
+    se_b = np.sqrt((sb ** 2).sum(axis=(0, 1))) / sb[..., 0].size
+    assert np.all(np.abs(mean_a - mean_b) < 4 * np.sqrt(se_a ** 2 + se_b ** 2)), (mean_a, mean_b, se_a, se_b)
 
 
 def test_negative_samples_are_rare_and_clamped():

@@ -89,6 +89,7 @@ public:
     int enclosure() const { return enclosure_ == kNoPrim ? -1 : prims_[enclosure_].shape; }
     bool outside_enclosure(const Ray &ray) const { return enclosure_ != kNoPrim && moves_away_from_enclosure(ray); }
     Bounds bounds() const;
+    Bounds shape_bounds(int shape) const;
 
 private:
     struct Primitive {

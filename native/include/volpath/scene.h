@@ -93,11 +93,24 @@ struct Scene {
     // The first sun or directional light, which guides free flights in the air; set by build().
     std::optional<SunGuide> sun;
     const SunGuide *sun_guide() const { return sun ? &*sun : nullptr; }
-    // Whether NEE under MIS chooses that sun alone and nothing but a planet shadows it in
-    // the air (the only shapes are atmospheres' ground and top spheres): the light scattered
-    // in the air then has models whose integrals are known (AirSegment::light_model, the
-    // SkyMap), control variates for the guided free flight. Set by build().
-    bool sun_shadowed_by_planets_alone = false;
+    // Whether NEE under MIS chooses that sun alone: the light scattered in the air then has
+    // models whose integrals are known (AirSegment::light_model, the SkyMap), control
+    // variates for the guided free flight, wherever nothing but a planet shadows the sun.
+    // Set by build().
+    bool sun_alone_under_mis = false;
+    // The bounds of the shapes that may shadow the air besides the planets and the air's
+    // own boundaries (terrain, buildings, a fog bank's box); invalid if there are none.
+    // Set by build().
+    Bounds local_bounds;
+    // The distances [first, second] within [t0, t1] along `ray` whose points see the sun
+    // through local_bounds (first > second: none): there local shapes may shadow the air.
+    std::pair<Real, Real> local_sun_shadow(const Ray &ray, Real t0, Real t1) const;
+    // Whether the air's light models hold at p: the sun alone, not shadowed by local shapes.
+    bool air_models_hold(const Vec3 &p) const {
+        if (!sun_alone_under_mis || !local_bounds.valid()) return sun_alone_under_mis;
+        const auto [a, b] = local_sun_shadow(Ray{p, Vec3(0, 0, 1)}, 0, 0);
+        return a > b;
+    }
     std::string describe() const;
 };
 

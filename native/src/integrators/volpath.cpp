@@ -392,7 +392,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
         ++depth;
         const PhaseFunction phase = medium_phase(m, p);
         const SkyMap *map = sky_map_of(m);
-        const bool models = map && map->models_light && scene.sun_shadowed_by_planets_alone && feat.nee;
+        const bool models = map && map->models_light && feat.nee && scene.air_models_hold(p);
         const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
         if (feat.nee) {
             if (!vertex || !scene.collision_nee_lights[feat.mis].empty())
@@ -487,12 +487,13 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
     // radiance()); collisions are drawn along the segment toward where the sun's light
     // scatters, weighted with the table's transmittance.
     enum class Flight { Crossed, Scattered, Ended };
-    auto guided_flight = [&](const Medium &m, bool hit, const Intersection &its, Real t_end) {
+    // `hit`: the segment ends at the surface `its` (else at a cut, or nowhere); `clear`: the
+    // air's light models hold along it (see the cut in the main loop).
+    auto guided_flight = [&](const Medium &m, bool hit, const Intersection &its, Real t_end, bool clear) {
         // The light scattered along the segment as a control variate (AirSegment::light_model):
         // the model's integral is added, and at a collision the model's value there is taken
         // off what the path then gathers (NEE, and past it the light the sky map models).
-        const bool light_model = branch != Branch::PassThrough && feat.nee && scene.sun_shadowed_by_planets_alone &&
-                                 !last_vertex();
+        const bool light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
         const SkyMap *map = sky_map_of(m);
         const bool map_model = light_model && map && map->models_light &&
                                (feat.max_depth < 0 || depth + 2 < feat.max_depth);
@@ -562,9 +563,28 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
 
         // Travel through the current medium, possibly scattering in it.
         if (medium >= 0 && feat.scatter && guided_air(scene.media[medium])) {
-            const Flight flight = guided_flight(scene.media[medium], hit, its, t_end);
+            // Where the scene's own shapes may shadow the sun from the segment, the air's light
+            // models do not hold: the segment is cut where that starts or ends, and each piece
+            // is flown on its own (free flight is memoryless), the models serving as control
+            // variates on the clear pieces alone.
+            Real t_piece = t_end;
+            bool clear = scene.sun_alone_under_mis;
+            if (clear && scene.local_bounds.valid()) {
+                const Real eps = 1e-9 * (1 + std::abs(ray.t_min) + std::abs(t_end));
+                const auto [a, b] = scene.local_sun_shadow(ray, ray.t_min, t_end);
+                if (a <= b && b > ray.t_min + eps) {
+                    if (a > ray.t_min + eps) t_piece = a;  // clear up to the shadow
+                    else clear = false, t_piece = b;       // shadowed up to its end
+                }
+            }
+            const bool cut = t_piece < t_end;
+            const Flight flight = guided_flight(scene.media[medium], hit && !cut, its, t_piece, clear);
             if (flight == Flight::Ended) return L;
             if (flight == Flight::Scattered) continue;
+            if (cut) {
+                ray.t_min = t_piece;
+                continue;
+            }
         } else if (medium >= 0) {
             const Medium &m = scene.media[medium];
             const auto *h = std::get_if<HomogeneousMedium>(&m);

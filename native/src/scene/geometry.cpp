@@ -213,6 +213,16 @@ bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vec
     return false;
 }
 
+Bounds Geometry::shape_bounds(int shape) const {
+    const ShapeGeometry &g = shapes[size_t(shape)];
+    if (g.kind == ShapeGeometry::Kind::Mesh) {
+        Bounds b;
+        for (const Vec3 &p : meshes[size_t(g.index)].positions) b.extend(p);
+        return b;
+    }
+    return primitive_bounds({shape, 0});
+}
+
 Bounds Geometry::bounds() const {
     if (nodes_.empty()) return {};
     const Real *b = nodes_[0].bounds;

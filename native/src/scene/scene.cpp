@@ -151,11 +151,50 @@ void Scene::build() {
         }
         air->sky_map = build_sky_map(*air, *sun, albedo, camera.to_world.point(Vec3(0.0)));
     }
-    sun_shadowed_by_planets_alone = mis_nee_lights.size() == 1 && mis_nee_lights[0] == sun_light;
-    for (int i = 0; i < int(shapes.size()) && sun_shadowed_by_planets_alone; ++i)
-        sun_shadowed_by_planets_alone = shadows_no_air(i);
+    sun_alone_under_mis = mis_nee_lights.size() == 1 && mis_nee_lights[0] == sun_light;
+    local_bounds = Bounds();
+    for (int i = 0; i < int(shapes.size()); ++i)
+        if (!shadows_no_air(i)) local_bounds.extend(geometry.shape_bounds(i));
     if (camera.medium >= int(media.size())) throw std::out_of_range("invalid camera medium");
     built = true;
+}
+
+// The points o + t d, t in [t0, t1], whose rays toward the sun, o + t d + u s (u >= 0),
+// enter local_bounds: where for some u every axis i has lo_i <= o_i + t d_i + u s_i <= hi_i.
+// Each axis bounds u from below and above by functions linear in t (or, where s_i = 0,
+// bounds t itself); u exists where every lower bound is below every upper bound, a linear
+// condition on t per pair (Fourier-Motzkin elimination). The set is an interval: the
+// projection of a convex set.
+std::pair<Real, Real> Scene::local_sun_shadow(const Ray &ray, Real t0, Real t1) const {
+    const std::pair<Real, Real> none{kInfinity, -kInfinity};
+    if (!sun || !local_bounds.valid()) return none;
+    const Vec3 s = sun->to_sun;
+    struct Linear {
+        Real a, b;  // a + b t
+    };
+    Linear lower[4] = {{0, 0}}, upper[3];  // u >= 0 is the first lower bound
+    int n_lower = 1, n_upper = 0;
+    Real lo_t = t0, hi_t = t1;
+    // a + b t <= 0 narrows [lo_t, hi_t].
+    auto at_most_zero = [&](Real a, Real b) {
+        if (b > 0) hi_t = std::min(hi_t, -a / b);
+        else if (b < 0) lo_t = std::max(lo_t, -a / b);
+        else if (a > 0) hi_t = -kInfinity;
+    };
+    for (int i = 0; i < 3; ++i) {
+        const Real o = ray.o[i], d = ray.d[i], lo = local_bounds.lo[i], hi = local_bounds.hi[i];
+        if (s[i] == 0) {
+            at_most_zero(lo - o, -d);  // lo <= o + t d
+            at_most_zero(o - hi, d);   // o + t d <= hi
+            continue;
+        }
+        const Linear from_lo{(lo - o) / s[i], -d / s[i]}, from_hi{(hi - o) / s[i], -d / s[i]};
+        lower[n_lower++] = s[i] > 0 ? from_lo : from_hi;
+        upper[n_upper++] = s[i] > 0 ? from_hi : from_lo;
+    }
+    for (int j = 0; j < n_lower; ++j)
+        for (int k = 0; k < n_upper; ++k) at_most_zero(lower[j].a - upper[k].a, lower[j].b - upper[k].b);
+    return lo_t <= hi_t ? std::pair<Real, Real>{lo_t, hi_t} : none;
 }
 
 std::string Scene::describe() const {
