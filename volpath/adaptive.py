@@ -7,20 +7,26 @@ target_error=0.01 asks for 1 % of the display's range, and dark and overexposed 
 count as little as they show.
 
 The estimate. Every pixel's samples are split by index parity into two half-buffers drawn
-from two independent sequences (the native renderer's ``halves``), so with A and B the
-halves' means and I = (A + B) / 2 the pixel, ((A - B) / 2)^2 estimates the variance of I
-without bias, whether or not the sampler stratifies. Carried to the display by the curve's
-slope at I, it gives each BLOCK x BLOCK block's mean squared display error; the image's
-error is the pixel-weighted RMS over the blocks.
+from two independent sequences (the native renderer's ``halves``), A and B, each the mean
+of half the samples, the pixel I = (A + B) / 2. A and B are displayed, and a quarter of
+their squared difference estimates the displayed pixel's squared error: were the display
+linear, without bias (Var(A - B) = 4 Var(I)); as it is, the curve compresses a firefly in
+one half as much as it compresses it on screen, where the curve's slope at I would count
+it at full strength (on the sunrise's sparkling fog bank that asked for far more samples
+than the screen needed). Each BLOCK x BLOCK block's mean squared display error is
+its pixels' and channels' mean; the image's error is the pixel-weighted RMS over the
+blocks. tests/stats/test_adaptive.py checks that the spread of independent renders, on
+screen, is the target to within 20 %.
 
 The rounds. Every pixel first takes ``min_spp`` samples. After each round, water-filling
 finds the level E* to which the blocks above it must be brought so that the image's error
 is the target (blocks below it, or stopped at the sample cap, keep theirs); each such block
 takes the samples that its error predicts it needs (error ~ 1 / sqrt(n)), at least a
-quarter more and at most as many again as it has. A block's decision depends on its own
-samples only through its error estimate, pooled over up to 3 BLOCK^2 values: the bias this
-leaves is of second order, below the z-tests' resolution, where per-pixel decisions are
-caught at z = 12 (tests/stats/test_adaptive.py).
+quarter more and at most as many again as it has. Blocks within SLACK of E* take no round of a
+few samples: the image may end up to SLACK - 1 above the target. A block's decision depends
+on its own samples only through its error estimate, pooled over up to 3 BLOCK^2 values: the
+bias this leaves is of second order, below the z-tests' resolution, where per-pixel
+decisions are caught (tests/stats/test_adaptive.py).
 """
 
 import time
@@ -28,7 +34,7 @@ import time
 import numpy as np
 
 from . import _core
-from .tonemap import auto_exposure, display_slope
+from .tonemap import auto_exposure, display
 
 BLOCK = 8
 MIN_SPP = 8
@@ -69,7 +75,7 @@ class Adaptive:
         a, b = self.halves[:, :, 0] / half_n, self.halves[:, :, 1] / half_n
         image = (a + b) / 2
         exposure = auto_exposure(image) if self.exposure is None else self.exposure
-        squared = np.mean((display_slope(image, exposure) * (a - b) / 2) ** 2, axis=2)
+        squared = np.mean((display(a, exposure) - display(b, exposure)) ** 2, axis=2) / 4
         pixels = self._per_block(np.ones(self.taken.shape))
         self.block_error = np.sqrt(self._per_block(squared) / pixels)
         self.error = float(np.sqrt(np.sum(pixels * self.block_error ** 2) / np.sum(pixels)))

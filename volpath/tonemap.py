@@ -1,4 +1,4 @@
-"""The display transform the pipeline's video shows, and its derivative: exposure in stops,
+"""The display transform the pipeline's video shows: exposure in stops,
 the ACES filmic fit (Narkowicz 2015), the sRGB transfer curve. Rendering to a target error
 (volpath/adaptive.py) measures the error in these display units."""
 
@@ -20,17 +20,6 @@ def display(image, exposure=0.0):
     """Linear radiance -> display values in [0, 1]: scale by 2^exposure, the filmic curve, sRGB."""
     x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0 ** exposure, 0.0)
     return _srgb(np.clip(_film(x), 0.0, 1.0))
-
-
-def display_slope(image, exposure=0.0):
-    """d display / d radiance at each value (0 where the filmic curve has clipped)."""
-    scale = 2.0 ** exposure
-    u = np.maximum(np.asarray(image, dtype=np.float64) * scale, 0.0)
-    num, den = u * (2.51 * u + 0.03), u * (2.43 * u + 0.59) + 0.14
-    film_slope = ((5.02 * u + 0.03) * den - num * (4.86 * u + 0.59)) / den ** 2
-    y = num / den
-    srgb_slope = np.where(y <= 0.0031308, 12.92, 1.055 / 2.4 * np.maximum(y, 0.0031308) ** (1 / 2.4 - 1))
-    return np.where(y < 1.0, srgb_slope * film_slope * scale, 0.0)
 
 
 def log_brightness(image):
