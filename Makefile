@@ -11,7 +11,10 @@ DEBIAN_PACKAGES := g++ make libopenvdb-dev libboost-iostreams-dev
 PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo python3-venv) \
             $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
-SPP ?= 8
+SUNRISE_BLEND := scenes/sunrise/sunrise.blend
+SPP ?= 32
+TARGET ?= 0.03
+DENOISE ?= --denoise
 RES ?= 320x180
 FRAMES ?= 1-72
 JOBS ?= 2
@@ -79,18 +82,22 @@ extension: wheel
 	$(PY) $(BLENDER_EXT) build --source-dir . --output-dir dist --split-platforms
 	@ls -la dist/*.zip
 
-# The accuracy study: docs/accuracy.md and its plots (references cached in bench/cache/).
-accuracy: setup $(VENV)/.bench
+# The accuracy study: docs/accuracy.md and its plots (references cached in bench/cache/),
+# with denoising's section.
+accuracy: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/accuracy/run.py
+	$(PY) bench/accuracy/denoise.py
 
-# The default sunrise: the scene is built by its script, then the pipeline renders
-# FRAMES at RES and SPP to out/sunrise/ (frames/*.exr, sunrise.mp4, contact_sheet.png).
-SUNRISE_BLEND := scenes/sunrise/sunrise.blend
+# The default sunrise: the scene is built by its script, then the pipeline renders FRAMES
+# at RES, each to the display error TARGET (SPP samples at most; TARGET=0: SPP each),
+# denoised (DENOISE= to turn it off), to out/sunrise/ (frames/*.exr, sunrise.mp4,
+# contact_sheet.png, summary.json).
 $(SUNRISE_BLEND): scenes/sunrise/build.py $(VENV)/.native
 	$(PY) scenes/sunrise/build.py $@
 
 sunrise: setup $(SUNRISE_BLEND)
-	$(PY) -m pipeline.sunrise --blend $(SUNRISE_BLEND) --frames $(FRAMES) --spp $(SPP) --res $(RES) --out out/sunrise
+	$(PY) -m pipeline.sunrise --blend $(SUNRISE_BLEND) --frames $(FRAMES) --spp $(SPP) --target-error $(TARGET) \
+	  $(DENOISE) --res $(RES) --out out/sunrise
 	@echo "video: out/sunrise/sunrise.mp4"
 
 # Many more hostile inputs than `make test` runs.

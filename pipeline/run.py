@@ -240,11 +240,19 @@ class Run:
             video.write_png(os.path.join(png_dir, f"{i:05d}.png"), picture)
             pictures.append(picture)
         step = max(1, len(pictures) // 24)  # at most about 24 frames on the sheet
-        video.write_png(os.path.join(self.out_dir, "contact_sheet.png"), video.contact_sheet(pictures[::step]))
+        labels = [self._label(f) for f in finished[::step]]
+        video.write_png(os.path.join(self.out_dir, "contact_sheet.png"), video.contact_sheet(pictures[::step], labels=labels))
         mp4 = video.encode(os.path.join(png_dir, "%05d.png"), os.path.join(self.out_dir, self.options.video_name),
                            fps=self.options.fps)
         return self._write_summary(cancelled=self.cancel.is_set(), video=os.path.abspath(mp4),
                                    video_frames=len(finished))
+
+    def _label(self, frame):
+        """The contact sheet's words on a frame: its number, the display error it reached
+        (rendered to a target) and its seconds."""
+        status = self.status.get(frame, {})
+        parts = [str(frame)] + ([f"{status['error']:.3f}"] if "error" in status else [])
+        return " ".join(parts + ([f"{status['seconds']:.0f}s"] if "seconds" in status else []))
 
     def execute(self):
         """Render, then the pictures and the video; returns the summary."""

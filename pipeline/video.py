@@ -43,8 +43,25 @@ def write_png(path, rgb):
     os.replace(tmp, path)
 
 
-def contact_sheet(images, columns=6):
-    """Tone-mapped frames side by side, in rows of ``columns``."""
+# A 3x5-pixel font for the contact sheet's labels: rows top to bottom, bits left to right.
+_GLYPHS = {"0": (7, 5, 5, 5, 7), "1": (2, 6, 2, 2, 7), "2": (7, 1, 7, 4, 7), "3": (7, 1, 7, 1, 7),
+           "4": (5, 5, 7, 1, 1), "5": (7, 4, 7, 1, 7), "6": (7, 4, 7, 5, 7), "7": (7, 1, 1, 1, 1),
+           "8": (7, 5, 7, 5, 7), "9": (7, 5, 7, 1, 7), ".": (0, 0, 0, 0, 2), "s": (0, 3, 6, 3, 6),
+           " ": (0, 0, 0, 0, 0)}
+
+
+def label(picture, text, scale=1):
+    """``text`` (digits, '.', 's', spaces) in white on black at the picture's bottom left."""
+    # Four columns a character: its three, then a blank one.
+    rows = np.array([[(_GLYPHS[c][r] << 1 >> (3 - b)) & 1 for c in text for b in range(4)] for r in range(5)], np.uint8)
+    glyphs = np.kron(np.pad(rows, 1), np.ones((scale, scale), np.uint8))
+    h, w = min(glyphs.shape[0], picture.shape[0]), min(glyphs.shape[1], picture.shape[1])
+    picture[-h:, :w] = glyphs[-h:, :w, None] * 255
+    return picture
+
+
+def contact_sheet(images, columns=6, labels=None):
+    """Tone-mapped frames side by side, in rows of ``columns``, each with its label if given."""
     if not images:
         raise ValueError("no frames for a contact sheet")
     h, w, _ = images[0].shape
@@ -53,7 +70,10 @@ def contact_sheet(images, columns=6):
     sheet = np.zeros((rows * h, cols * w, 3), np.uint8)
     for i, img in enumerate(images):
         r, c = divmod(i, columns)
-        sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = img
+        tile = img.copy()
+        if labels is not None:
+            label(tile, labels[i], scale=max(1, h // 90))
+        sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = tile
     return sheet
 
 

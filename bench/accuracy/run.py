@@ -29,6 +29,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(HERE))
 import compare_mitsuba as cm  # noqa: E402  (sets up Mitsuba's LLVM path)
+from accuracy.denoise import kept_section  # noqa: E402
 import volpath  # noqa: E402
 
 CACHE = os.path.join(ROOT, "bench", "cache")
@@ -374,8 +375,10 @@ def main():
             "## Seconds to each scene's target error\n\n![summary](accuracy/summary.png)\n\n"
             "| scene | auto s | best fixed tracer s | auto / best | Mitsuba 3 s | Cycles s |\n"
             "|---|---|---|---|---|---|\n" + table + "\n\n## Scenes\n\n" + "\n".join(sections))
-    with open(os.path.join(DOCS, "accuracy.md"), "w") as f:
-        f.write(text)
+    path = os.path.join(DOCS, "accuracy.md")
+    kept = kept_section(path)  # bench/accuracy/denoise.py's section
+    with open(path, "w") as f:
+        f.write(text + ("\n\n" + kept + "\n" if kept else ""))
     print(text)
 
 
