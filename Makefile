@@ -60,6 +60,8 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/pipeline_throughput.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --sky --append bench/RESULTS.md
+	test -f out/sunrise/summary.json || $(MAKE) sunrise
+	$(PY) bench/sunrise_quality.py --append bench/RESULTS.md
 	$(PY) bench/sparse_cloud.py --append bench/RESULTS.md
 	$(PY) bench/spectral_sky.py --append bench/RESULTS.md
 	$(PY) bench/spectral_sunrise.py --append bench/RESULTS.md

@@ -135,18 +135,25 @@ def test_control_variates_leave_the_sky_unbiased(elevation, max_depth):
     see Russian roulette add 0.8 of its prediction instead of all of it); max_depth 3 and
     4 check where the models stop. And the control variates must pay: the guided s.e.
     well below tracking's at equal samples."""
+    assert sky_map(sky(elevation=elevation), (0, 2, 0))["models_light"]
+    sa, sb = guided_agrees_with_tracking(elevation=elevation, max_depth=max_depth)
+    assert np.mean(sb) < 0.25 * np.mean(sa), (np.mean(sb), np.mean(sa))  # 0.5x at equal spp
+
+
+def guided_agrees_with_tracking(**scene):
+    """Delta tracking at 2048 spp and the guided flight at 512, 8 independent renders each:
+    z-tests on 2x2-pixel blocks (5 s.e.) and on the image mean per channel (4 s.e.).
+    Returns the two standard errors per block."""
     res = {}
     for flight, spp in (("tracking", 2048), ("guided", 512)):
-        scene = sky(elevation=elevation, flight=flight, max_depth=max_depth, spp=spp)
-        res[flight] = render_batches(volpath.render, scene, 8, block=2)
-    assert sky_map(sky(elevation=elevation), (0, 2, 0))["models_light"]
+        res[flight] = render_batches(volpath.render, sky(flight=flight, spp=spp, **scene), 8, block=2)
     (a, sa), (b, sb) = res["tracking"], res["guided"]
     assert max_z(a, sa, b, sb) < 5
     mean_a, mean_b = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
     se_a = np.sqrt((sa ** 2).sum(axis=(0, 1))) / sa[..., 0].size
     se_b = np.sqrt((sb ** 2).sum(axis=(0, 1))) / sb[..., 0].size
     assert np.all(np.abs(mean_a - mean_b) < 4 * np.sqrt(se_a ** 2 + se_b ** 2)), (mean_a, mean_b, se_a, se_b)
-    assert np.mean(sb) < 0.25 * np.mean(sa), (np.mean(sb), np.mean(sa))  # 0.5x at equal spp
+    return sa, sb
 
 
 def test_local_sun_shadow_is_where_rays_toward_the_sun_meet_the_local_bounds():
@@ -180,16 +187,7 @@ def test_control_variates_past_local_shapes_leave_the_sky_unbiased(elevation):
     """With a hill and a fog bank in the air, the models serve only where the sun's rays
     miss them (the guided flight cuts its segments there): the sky against delta tracking,
     as above, the camera looking over the hill, through the fog's shadow, at the sky."""
-    res = {}
-    for flight, spp in (("tracking", 2048), ("guided", 512)):
-        scene = sky(elevation=elevation, flight=flight, spp=spp, target="0.3, 2.1, -1", extra=HILL_AND_FOG)
-        res[flight] = render_batches(volpath.render, scene, 8, block=2)
-    (a, sa), (b, sb) = res["tracking"], res["guided"]
-    assert max_z(a, sa, b, sb) < 5
-    mean_a, mean_b = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
-    se_a = np.sqrt((sa ** 2).sum(axis=(0, 1))) / sa[..., 0].size
-    se_b = np.sqrt((sb ** 2).sum(axis=(0, 1))) / sb[..., 0].size
-    assert np.all(np.abs(mean_a - mean_b) < 4 * np.sqrt(se_a ** 2 + se_b ** 2)), (mean_a, mean_b, se_a, se_b)
+    guided_agrees_with_tracking(elevation=elevation, target="0.3, 2.1, -1", extra=HILL_AND_FOG)
 
 
 def test_negative_samples_are_rare_and_clamped():
