@@ -55,6 +55,7 @@ class Adaptive:
         self.halves = np.zeros((height, width, 2, 3))
         self.taken = np.zeros((height, width), np.uint32)
         self.blocks_y, self.blocks_x = -(-height // BLOCK), -(-width // BLOCK)
+        self.block_pixels = self._per_block(np.ones((height, width)))
         self.error = np.inf
         self.block_error = np.full((self.blocks_y, self.blocks_x), np.inf)
 
@@ -76,21 +77,22 @@ class Adaptive:
         image = (a + b) / 2
         exposure = auto_exposure(image) if self.exposure is None else self.exposure
         squared = np.mean((display(a, exposure) - display(b, exposure)) ** 2, axis=2) / 4
-        pixels = self._per_block(np.ones(self.taken.shape))
-        self.block_error = np.sqrt(self._per_block(squared) / pixels)
-        self.error = float(np.sqrt(np.sum(pixels * self.block_error ** 2) / np.sum(pixels)))
+        self.block_error = np.sqrt(self._per_block(squared) / self.block_pixels)
+        self.error = self._rms(self.block_error)
         return self.error
+
+    def _rms(self, block_error):
+        """The image's error from its blocks' (pixel-weighted)."""
+        return float(np.sqrt(np.sum(self.block_pixels * block_error ** 2) / np.sum(self.block_pixels)))
 
     def level(self, n):
         """The error E* that the unfinished blocks are sampled to: the image's RMS error is
         the target when every block ends at min(E_b, E*), or at the error it has at the
         sample cap when that is higher (water-filling, by bisection)."""
-        weights = self._per_block(np.ones(self.taken.shape))
         cap_error = self.block_error * np.sqrt(n / self.max_spp)
 
         def rms(level):
-            final = np.maximum(np.minimum(self.block_error, level), cap_error)
-            return np.sqrt(np.sum(weights * final ** 2) / np.sum(weights))
+            return self._rms(np.maximum(np.minimum(self.block_error, level), cap_error))
 
         lo, hi = 0.0, float(self.block_error.max())
         if rms(hi) <= self.target:
@@ -137,11 +139,11 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
     ``max_spp``; returns (image, stats, samples per pixel): the image and stats as
     _core.render gives them, with the achieved error and the spp taken. ``features`` (the
     denoiser's passes) are summed over all rounds."""
-    spp_unused, seed, threads, *tracer_args = args
+    _, seed, threads, *tracer_args = args  # the spp each pixel takes is the rounds' counts
     height, width = native.height, native.width
     state = Adaptive(height, width, target, max_spp, exposure)
     stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
-    start, light, rounds = time.perf_counter(), 0.0, 0
+    start, rounds = time.perf_counter(), 0
     counts, later = state.next_counts()
     while counts.any():
         round_samples, done_before = float(counts.sum()), float(state.taken.sum())
@@ -156,16 +158,14 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
                         "seconds": time.perf_counter() - start, "seconds_left": left})
             return None if progress is None else progress(done / total)
 
-        starts = state.taken.copy()
-        image, s = _core.render(native, 2, seed, threads, *tracer_args, report, None, sobol, 0, starts, counts,
-                                state.halves, features)
+        _, s = _core.render(native, 2, seed, threads, *tracer_args, report, None, sobol, 0, state.taken, counts,
+                            state.halves, features)
         rounds += 1
         state.taken += counts
         stats["seconds"] += s["seconds"]
         for key in ("nonfinite_samples", "negative_samples"):
             stats[key] += s[key]
         stats["clamped_share"] += s["clamped_share"] * round_samples
-        light += round_samples
         if out is not None:
             out[...] = state.image()
         if s["cancelled"]:
@@ -173,7 +173,7 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
             break
         state.estimate()
         counts, later = state.next_counts()
-    stats["clamped_share"] /= max(light, 1.0)
+    stats["clamped_share"] /= max(float(state.taken.sum()), 1.0)
     if progress is not None and not stats["cancelled"]:
         progress(1.0)
     spp = state.taken
