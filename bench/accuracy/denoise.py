@@ -8,7 +8,7 @@ The error is the display RMSE (the pipeline's tone curve at the reference's auto
 exposure, 0..1) net of the reference's own noise: the reference is two independent
 halves, a quarter of whose squared displayed difference is its noise on screen, taken off
 every squared error. A denoiser's bias is where its curve flattens: the table gives the
-error at the ladder's top, and the shift of the image's mean.
+error at the ladder's top, and the shift of the displayed image's mean brightness.
 
     .venv/bin/python bench/accuracy/denoise.py [--ladder 2 8 32 128] [--ref-spp 1024]
 """
@@ -96,7 +96,7 @@ def measure(name, render, ladder, ref_spp):
             seconds = time.perf_counter() - start
             squared = np.mean((display(image, exposure) - shown) ** 2) - ref_noise
             points.append({"spp": spp, "seconds": seconds, "error": float(np.sqrt(max(squared, 0.0))),
-                           "mean_shift": float(image.mean() / ref.mean() - 1)})
+                           "mean_shift": float(display(image, exposure).mean() - shown.mean())})
         rows["denoised" if denoise else "noisy"] = points
     return {"ref_noise": float(np.sqrt(ref_noise)), **rows}
 
@@ -134,16 +134,17 @@ def section(results, args):
              f"{args.ref_spp}-spp references. Error: display RMSE (the video's tone curve at the reference's "
              "auto exposure, 0..1), net of the reference's own noise. Denoising buys most where the noise "
              "is high (few samples) and flattens where its bias is reached: the error at the top of the "
-             "ladder and the shift of the image's mean show that bias; time includes the filter.", "",
+             "ladder and the shift of the displayed image's mean show that bias (where the noisy render "
+             "is nearly converged, the denoised one is the worse of the two); time includes the filter.", "",
              "![denoising](accuracy/denoising.png)", "",
              "| scene | error at the lowest spp: noisy → denoised | at the highest: noisy → denoised | "
-             "mean shift, denoised | denoise time |",
+             "shift of the displayed mean at the highest, denoised (noisy) | the filter's time |",
              "|---|---|---|---|---|"]
     for name, r in results.items():
         n, d = r["noisy"], r["denoised"]
         lines.append(f"| {name} | {n[0]['error']:.4f} → {d[0]['error']:.4f} ({n[0]['spp']} spp) | "
                      f"{n[-1]['error']:.4f} → {d[-1]['error']:.4f} ({n[-1]['spp']} spp) | "
-                     f"{100 * d[-1]['mean_shift']:+.2f} % (noisy {100 * n[-1]['mean_shift']:+.2f} %) | "
+                     f"{d[-1]['mean_shift']:+.4f} ({n[-1]['mean_shift']:+.4f}) | "
                      f"{d[0]['seconds'] - n[0]['seconds']:+.2f} s |")
     lines += ["", MARKERS[1]]
     return "\n".join(lines)
@@ -174,14 +175,22 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=1024)
     ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--sunrise-res", type=lambda t: tuple(map(int, t.split("x"))), default=(160, 90))
+    ap.add_argument("--report-only", action="store_true", help="rewrite the section from the saved measurements")
     args = ap.parse_args()
-    results = {}
-    for stem in BENCH:
-        results[stem] = measure(stem, bench_renderer(stem, args.res), args.ladder, args.ref_spp)
-        print(stem, json.dumps(results[stem]))
-    for name, render in sunrise_renderers(SUNRISE_FRAMES, args.sunrise_res).items():
-        results[name] = measure(name, render, args.ladder, args.ref_spp)
-        print(name, json.dumps(results[name]))
+    saved = os.path.join(CACHE, "results.json")
+    if args.report_only:
+        with open(saved, encoding="utf-8") as f:
+            results = json.load(f)
+    else:
+        results = {}
+        for stem in BENCH:
+            results[stem] = measure(stem, bench_renderer(stem, args.res), args.ladder, args.ref_spp)
+            print(stem, json.dumps(results[stem]))
+        for name, render in sunrise_renderers(SUNRISE_FRAMES, args.sunrise_res).items():
+            results[name] = measure(name, render, args.ladder, args.ref_spp)
+            print(name, json.dumps(results[name]))
+        with open(saved, "w", encoding="utf-8") as f:
+            json.dump(results, f, indent=1)
     plot(results, os.path.join(DOCS, "accuracy", "denoising.png"))
     path = os.path.join(DOCS, "accuracy.md")
     with open(path, encoding="utf-8") as f:
