@@ -9,7 +9,6 @@ comparison, 48 comparisons, family-wise false alarms below 1 %).
 import numpy as np
 import pytest
 import volpath
-from volpath.adaptive import BLOCK
 from volpath.tonemap import auto_exposure, display
 from volpath.testing import MIN_BATCHES, max_z, render_batches
 
