@@ -108,7 +108,7 @@ struct Scene {
     // Whether the air's light models hold at p: the sun alone, not shadowed by local shapes.
     bool air_models_hold(const Vec3 &p) const {
         if (!sun_alone_under_mis || !local_bounds.valid()) return sun_alone_under_mis;
-        const auto [a, b] = local_sun_shadow(Ray{p, Vec3(0, 0, 1)}, 0, 0);
+        const auto [a, b] = local_sun_shadow(Ray{p, Vec3(0, 0, 1)}, 0, 0);  // the point alone: t in [0, 0]
         return a > b;
     }
     std::string describe() const;
