@@ -32,7 +32,8 @@ from .errors import SceneError
 ANIMATION_FILE = "animation.json"
 SCENE_FILE = "scene.xml"
 
-_cache = {}  # per worker process: animation key -> (scene dictionary, base directory)
+_cache = {}  # per worker process: animation key -> (scene dictionary, base directory, animation)
+_scenes = {}  # per worker process: base directory -> the scene at the last frame rendered
 
 
 def read_animation(directory):
@@ -137,7 +138,13 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fai
         raise SceneError(f"frame {frame} is not in the exported animation")
     entry = entries[0]
     start = time.perf_counter()
-    scene = load_dict(frame_dictionary(d, animation, entry), base_dir=directory, source=f"frame {frame}")
+    # A worker builds the scene once; the frames after it move the camera and the suns
+    # (Scene.update), unless more changes (a VDB sequence's grids).
+    frame_d = frame_dictionary(d, animation, entry)
+    scene = _scenes.get(directory)
+    if scene is None or not scene.update(frame_d):
+        scene = _scenes[directory] = load_dict(frame_d, base_dir=directory)
+    scene.source = f"frame {frame}"
     image = render(scene, spp=spp, seed=frame if seed is None else seed, threads=threads, tracer=tracer,
                    target_error=target_error, denoise=denoise)
     stats = scene.last_render

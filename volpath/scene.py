@@ -75,10 +75,27 @@ class Scene:
         self.source = source
         self.last_render = None
         self.passes = []  # spectral mode: one native scene per wavelength pass
+        self._builder = None  # what update() rebuilds with
 
     @property
     def width(self):
         return self.native.width
+
+    def update(self, d):
+        """Move the scene to ``d``: the dictionary it was loaded from with its sensor or its
+        sun and directional emitters replaced (an animation's next frame). Only those are
+        built again; meshes, media, the BVH, and the sky map's levels while the sun stays
+        within their elevations, are kept, and the image is the same bits as
+        ``load_dict(d)``'s. Entries not replaced must be the same objects (as
+        ``volpath.frames.frame_dictionary`` leaves them). Returns False, changing nothing,
+        where ``d`` differs in anything else or the scene has spectral passes."""
+        if self.passes or self._builder is None:
+            return False
+        spp = self._builder.update(d)
+        if spp is None:
+            return False
+        self.spp = spp
+        return True
 
     @property
     def height(self):
@@ -113,6 +130,7 @@ def load_dict(d, base_dir=".", source=None):
         raise SceneError("expected a scene dictionary with 'type': 'scene'")
     builder = _Builder(d, base_dir, source)
     scene = builder.build()
+    scene._builder = builder
     if builder.spectral_passes:  # the scene again at each pass's wavelengths
         scene.passes = [_Builder(d, base_dir, source, wavelengths).build().native
                         for wavelengths in spectral.pass_wavelengths(builder.spectral_passes)]
@@ -305,6 +323,7 @@ class _Builder:
         self.bsdfs = {}
         self.building = set()
         self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
+        self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []    # (native medium index, centre, top radius)
         self.loc = d.get("__loc__")
@@ -349,8 +368,36 @@ class _Builder:
 
     # -- top level -----------------------------------------------------------------------
     def build(self):
+        return self._checked(self._build)
+
+    def update(self, d):
+        """Scene.update: the new sample count, or None where ``d`` changes more than the
+        sensor and the suns and directional lights."""
+        if set(d) != set(self.d):
+            return None
+        changed = [k for k in d if d[k] is not self.d[k]]
+        for k in changed:
+            kind = _kind(d[k]) if isinstance(d[k], dict) else None
+            if not (kind == "sensor" or (kind == "emitter" and k in self.lights and
+                                         d[k].get("type") == self.d[k].get("type"))):
+                return None
+
+        def update():
+            self.d, self.ids = d, {}
+            self._index_ids(d)
+            for k in changed:
+                if _kind(d[k]) == "sensor":
+                    self.spp = self.sensor(d[k])
+                else:
+                    self.emitter(d[k], k)
+            self.native.build()
+            return self.spp
+
+        return self._checked(update)
+
+    def _checked(self, step):
         try:
-            return self._build()
+            return step()
         except SceneError:
             raise
         except (TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError, RuntimeError) as e:
@@ -382,13 +429,13 @@ class _Builder:
             if kind == "shape":
                 self.shape(v)
             elif kind == "emitter":
-                self.emitter(v)
+                self.emitter(v, key)
             elif kind in ("bsdf", "medium", "texture", "integrator", "sensor", "phase", "volume"):
                 pass  # built where referenced
             else:
                 raise SceneError(f"{where(v.get('__loc__'))}unknown plugin type '{v.get('type')}'")
         settings = self.integrator(integrator)
-        settings["spp"] = self.sensor(sensor)
+        settings["spp"] = self.spp = self.sensor(sensor)
         # Declared BSDFs that nothing references are still checked.
         for key, v in items:
             if _kind(v) == "bsdf":
@@ -926,10 +973,14 @@ class _Builder:
         return self.bsdfs[key]
 
     # -- emitters ------------------------------------------------------------------------------
-    def emitter(self, d):
+    def emitter(self, d, key=None):
+        """Adds the emitter, or replaces the sun or directional light that was built
+        under the same top-level ``key`` (Scene.update)."""
         p = self.params(d, "emitter")
         n = self.native
         info = {"type": p.type, "loc": p.loc}
+        replace, position = self.lights.get(key, (-1, len(self.summary["emitters"])))
+        index = None
         if p.type == "point":
             if p.has("position"):
                 pos = p.vec3("position")
@@ -946,7 +997,7 @@ class _Builder:
             if np.linalg.norm(direction) == 0:
                 raise p.error("'direction' must not be zero")
             irradiance = p.rgb("irradiance", 1.0, emitted=True)
-            n.add_directional_light(tuple(direction), tuple(irradiance))
+            index = n.add_directional_light(tuple(direction), tuple(irradiance), replace)
             info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
         elif p.type == "constant":
             radiance = p.rgb("radiance", 1.0, emitted=True)
@@ -985,7 +1036,7 @@ class _Builder:
             if radius >= 0.5:
                 raise p.error("'angular_radius' must be below 0.5 rad")
             irradiance = p.rgb("irradiance", 1.0, emitted=True)
-            n.add_sun(tuple(to_sun), radius, tuple(irradiance))
+            index = n.add_sun(tuple(to_sun), radius, tuple(irradiance), replace)
             info.update(to_sun=to_sun.tolist(), angular_radius=radius, irradiance=irradiance.tolist())
         elif p.type == "area":
             raise p.error("an area emitter must be nested inside a shape")
@@ -993,7 +1044,9 @@ class _Builder:
             raise p.error("unknown emitter (expected one of: point, directional, sun, constant, envmap, area)")
         p.raw("sampling_weight")
         p.check()
-        self.summary["emitters"].append(info)
+        self.summary["emitters"][position:position + 1] = [info]
+        if key is not None and index is not None:
+            self.lights[key] = (index, position)
 
     def summarise_media(self):
         for m in self.summary["media"]:

@@ -96,6 +96,13 @@ PhaseFunction phase(double g) {
     return HenyeyGreenstein{g};
 }
 
+// A new light, or (replace >= 0) that light replaced: an animation's next frame.
+int add_or_replace(Scene &s, const Light &l, int replace) {
+    if (replace < 0) return s.add_light(l);
+    s.set_light(replace, l);
+    return replace;
+}
+
 ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface) {
     ShapeInfo info;
     info.bsdf = bsdf;
@@ -352,19 +359,21 @@ PYBIND11_MODULE(_core, m) {
              py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4,
              py::arg("sun_transmittance") = "table", py::arg("free_flight") = "guided", py::arg("sky_map") = true)
         .def("add_sun",
-             [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance) {
+             [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance, int replace) {
                  if (!(angular_radius > 0 && angular_radius < 0.5))
                      throw std::invalid_argument("sun angular radius must be in (0, 0.5) rad");
                  const double sin_r = std::sin(angular_radius);
-                 return s.add_light(SunLight{normalize(vec(to_sun)), std::cos(angular_radius),
-                                             vec(irradiance) / (kPi * sin_r * sin_r)});
-             })
+                 return add_or_replace(s, SunLight{normalize(vec(to_sun)), std::cos(angular_radius),
+                                                   vec(irradiance) / (kPi * sin_r * sin_r)}, replace);
+             },
+             py::arg("to_sun"), py::arg("angular_radius"), py::arg("irradiance"), py::arg("replace") = -1)
         .def("add_point_light",
              [](Scene &s, Array3 p, Array3 intensity) { return s.add_light(PointLight{vec(p), vec(intensity)}); })
         .def("add_directional_light",
-             [](Scene &s, Array3 d, Array3 irradiance) {
-                 return s.add_light(DirectionalLight{normalize(vec(d)), vec(irradiance)});
-             })
+             [](Scene &s, Array3 d, Array3 irradiance, int replace) {
+                 return add_or_replace(s, DirectionalLight{normalize(vec(d)), vec(irradiance)}, replace);
+             },
+             py::arg("direction"), py::arg("irradiance"), py::arg("replace") = -1)
         .def("add_environment",
              [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,
                 const DoubleArray &to_local) {
@@ -395,6 +404,7 @@ PYBIND11_MODULE(_core, m) {
                  c.near_clip = near_clip, c.far_clip = far_clip;
                  c.medium = medium;
                  c.gaussian_filter = gaussian;
+                 s.built = false;
              },
              py::arg("to_world"), py::arg("tan_x"), py::arg("tan_y"), py::arg("width"), py::arg("height"),
              py::arg("near_clip"), py::arg("far_clip"), py::arg("medium"), py::arg("gaussian"),
@@ -685,6 +695,7 @@ PYBIND11_MODULE(_core, m) {
         out["pdf"] = pdf, out["radiance"] = radiance, out["samples"] = samples, out["sample_pdf"] = sample_pdf;
         out["rayleigh_integral"] = Array3{ri.x, ri.y, ri.z};
         out["models_light"] = map.models_light;
+        out["levels"] = reinterpret_cast<uintptr_t>(map.levels.get());  // shared by maps that reuse them
         return out;
     });
     m.def("optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int steps) {

@@ -200,3 +200,34 @@ def test_negative_samples_are_rare_and_clamped():
     assert image.min() >= 0
     assert stats["negative_samples"] <= 1e-3 * 64 * 64 * 4, stats
     assert stats["clamped_share"] < 1e-4, stats
+
+
+def test_an_animated_sun_and_camera_give_the_bits_of_a_fresh_load():
+    """Scene.update (a worker's next frame) moves the sun and the camera and keeps the rest:
+    the sky map's levels while the sun stays within their elevations, a new map beyond. Each
+    frame renders the same bits as the frame loaded afresh; a change to anything else is
+    refused and leaves the scene as it was."""
+    from volpath.xml_reader import read_xml
+
+    cam = S.camera(res=8, fov=40, origin="0, 2, 0", target="0.3, 2.1, -1", spp=2,
+                   extra='<float name="far_clip" value="1e9"/>')
+    air = '<medium type="atmosphere" id="air"/>'
+    d = read_xml(S.scene(cam, air, '<emitter type="sun"><float name="elevation" value="2"/></emitter>', HILL_AND_FOG),
+                 "<test>")
+    scene = volpath.load_dict(d)
+    levels = sky_map(scene, (0, 2, 0))["levels"]
+    turned = np.array(d["sensor"]["to_world"])
+    turned[:3, 3] += (40, 5, 0)
+    for elevation, to_world, same_levels in ((2.4, d["sensor"]["to_world"], True), (2.6, turned, True),
+                                             (12, turned, False)):
+        frame = dict(d, emitter=dict(d["emitter"], elevation=elevation), sensor=dict(d["sensor"], to_world=to_world))
+        assert scene.update(frame)
+        assert scene.summary["emitters"][0]["to_sun"][1] == pytest.approx(np.sin(np.radians(elevation)))
+        assert (sky_map(scene, (0, 2, 0))["levels"] == levels) == same_levels
+        fresh = volpath.load_dict(frame)
+        assert np.array_equal(volpath.render(scene, seed=3), volpath.render(fresh, seed=3)), elevation
+    before = volpath.render(scene, seed=4)
+    moved_hill = {k: (dict(v) if v.get("__kind__") == "shape" else v) if isinstance(v, dict) else v
+                  for k, v in frame.items()}
+    assert not scene.update(moved_hill)
+    assert np.array_equal(volpath.render(scene, seed=4), before)

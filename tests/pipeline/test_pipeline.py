@@ -231,3 +231,22 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
     # mean over the puff's pixels at 4 spp is ~0.005). One pixel is too coarse under a white
     # sky: its few paths through the puff find the sky or not at all.
     assert images[1].mean() < images[0].mean()
+
+
+def test_a_worker_builds_the_scene_once_and_each_frame_is_the_bits_of_a_fresh_load(tmp_path):
+    """render_frame keeps a worker's scene and moves its sun and camera from frame to frame
+    (Scene.update); a frame is the same bits as the frame rendered by a fresh worker."""
+    from pipeline.export import export_animation
+    from volpath import frames
+
+    tiny_animation(frames=3, sky=True)
+    export_animation(bpy.context.scene, [1, 2, 3], str(tmp_path / "anim"))
+    kept = []
+    for frame in (1, 2, 3):
+        image, _ = frames.render_frame(str(tmp_path / "anim"), frame, 2, "null_scattering")
+        kept.append(frames._scenes[str(tmp_path / "anim")])
+        frames._scenes.clear()
+        fresh, _ = frames.render_frame(str(tmp_path / "anim"), frame, 2, "null_scattering")
+        assert np.array_equal(image, fresh), frame
+        frames._scenes[str(tmp_path / "anim")] = kept[-1]
+    assert kept[0] is kept[1] is kept[2]

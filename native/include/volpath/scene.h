@@ -60,7 +60,11 @@ struct Scene {
     int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
     int add_light(const Light &l);  // counts point_and_directional
+    // Replaces light i by another of its kind (an animation's sun); build() then redoes
+    // what depends on the lights, not the geometry.
+    void set_light(int i, const Light &l);
     void build();
+    bool geometry_built = false;  // the BVH is up to date with the shapes
 
     // NEE's probability of choosing `light`: uniform among mis_nee_lights under MIS, else
     // among all lights.

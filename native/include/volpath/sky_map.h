@@ -43,11 +43,15 @@ struct SkyMap {
         Real horizon[2], weight[2];
     };
     Vec3 center, to_sun;
+    Spectrum irradiance, ground_albedo;  // the sun's and the ground's the levels were made with
     Real planet_radius = 0, height = 0;
     Real elevation_lo = 0, elevation_step = 0;  // radians; levels at elevation_lo + k * elevation_step
     Real radius[kAltitudes] = {};               // of the altitude levels
     Real horizon[kAltitudes] = {};              // zenith cosine of the horizon at each altitude level
-    std::vector<Level> levels;                  // altitude fastest
+    // Altitude fastest. A level holds directions in its local frame (up, toward the sun's
+    // azimuth, across), so it depends on its sun elevation, not on the sun's direction:
+    // maps for suns that differ in direction alone share their levels.
+    std::shared_ptr<const std::vector<Level>> levels;
     bool models_light = false;                  // good enough to be a control variate
 
     Point at(const Vec3 &p) const;
@@ -63,9 +67,12 @@ struct SkyMap {
     Spectrum rayleigh_integral(const Point &at, const Vec3 &d_in) const;
 };
 
-// The map for `sun` over `air`, whose ground reflects `ground_albedo`,
-// with local sun elevations around the one at `viewpoint` (all of them from outside the air).
+// The map for `sun` over `air`, whose ground reflects `ground_albedo`, with local sun
+// elevations around the one at `viewpoint` (all of them from outside the air). The levels
+// of `previous`, a map over the same air, are taken over when they are the ones this map
+// needs (an animated sun that stays within a window of elevations): the levels are built
+// for a sun along +z, so they are the same bits whichever map built them first.
 std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const SunGuide &sun, const Spectrum &ground_albedo,
-                                            const Vec3 &viewpoint);
+                                            const Vec3 &viewpoint, const SkyMap *previous = nullptr);
 
 }  // namespace volpath

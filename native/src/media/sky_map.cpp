@@ -111,17 +111,20 @@ void parallel_for(size_t n, Fn &&fn) {
 }  // namespace
 
 std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const SunGuide &sun,
-                                            const Spectrum &ground_albedo, const Vec3 &viewpoint) {
+                                            const Spectrum &ground_albedo, const Vec3 &viewpoint, const SkyMap *previous) {
     auto map = std::make_shared<SkyMap>();
     SkyMap &m = *map;
     m.center = air.center, m.to_sun = sun.to_sun;
+    m.irradiance = sun.irradiance, m.ground_albedo = ground_albedo;
     m.planet_radius = air.planet_radius, m.height = air.top_radius - air.planet_radius;
     // Sun elevations within 8 degrees of the viewpoint's (the air a view from inside sees
-    // lies within ~900 km of it); all of them from outside the air.
+    // lies within ~900 km of it), on a grid fixed in elevation so that nearby suns share
+    // levels; all of them from outside the air.
     const LocalFrame view(air.center, air.planet_radius, sun.to_sun, viewpoint);
-    Real half = 8 * kPi / 180, mid = view.sun_elevation;
-    if (view.altitude >= m.height) half = kPi / 2, mid = 0;
-    mid = std::clamp(mid, -kPi / 2 + half, kPi / 2 - half);
+    Real half = 8 * kPi / 180, mid = 0;
+    const Real step = 2 * half / (NE - 1);
+    if (view.altitude >= m.height) half = kPi / 2;
+    else mid = std::clamp(step * std::round(view.sun_elevation / step), -kPi / 2 + half, kPi / 2 - half);
     m.elevation_lo = mid - half, m.elevation_step = 2 * half / (NE - 1);
     // Where the map stands for the light well enough to be a control variate (measured: in
     // twilight, and seen from space through its coarse elevations, it is far off).
@@ -132,12 +135,22 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
         m.radius[j] = air.planet_radius * (1 + 1e-7) + m.height * std::pow(Real(j) / (NA - 1), 3.0) * (1 - 1e-6);
         m.horizon[j] = -safe_sqrt(1 - sqr(air.planet_radius / m.radius[j]));
     }
-    m.levels.resize(size_t(NA) * NE);
+    if (previous && previous->elevation_lo == m.elevation_lo && previous->elevation_step == m.elevation_step &&
+        previous->irradiance == m.irradiance && previous->ground_albedo == m.ground_albedo) {
+        m.levels = previous->levels;
+        return map;
+    }
+    // The levels are made for a sun along +z (see build_sky_map's note), by a map `up`
+    // that looks them up for the twice scattered light.
+    SkyMap up = m;
+    up.to_sun = Vec3(0, 0, 1);
+    auto levels = std::make_shared<std::vector<SkyMap::Level>>(size_t(NA) * NE);
+    up.levels = levels;
     // A level's point: at its radius, with its sun at its elevation; and the direction
     // through the middle of each of its cells.
     auto origin = [&](size_t l) {
         const Real e = m.elevation_lo + Real(l / NA) * m.elevation_step;
-        return air.center + (sun.to_sun * std::sin(e) + Frame(sun.to_sun).s * std::cos(e)) * m.radius[l % NA];
+        return air.center + (up.to_sun * std::sin(e) + Frame(up.to_sun).s * std::cos(e)) * m.radius[l % NA];
     };
     auto cell_direction = [&](const LocalFrame &frame, size_t l, int iz, int ip) {
         const Real mu_h = m.horizon[l % NA];
@@ -145,25 +158,26 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
         const Real phi = 0.5 * (azimuth(ip) + azimuth(ip + 1)), s = safe_sqrt(1 - mu * mu);
         return frame.up * mu + (frame.toward_sun * std::cos(phi) + frame.across * std::sin(phi)) * s;
     };
+    const SunGuide sun_up{up.to_sun, sun.irradiance};
     // First the sun's single scattering and the sunlit ground.
-    parallel_for(m.levels.size(), [&](size_t l) {
+    parallel_for(levels->size(), [&](size_t l) {
         const Vec3 p = origin(l);
-        const LocalFrame frame(air.center, air.planet_radius, sun.to_sun, p);
-        SkyMap::Level &level = m.levels[l];
+        const LocalFrame frame(air.center, air.planet_radius, up.to_sun, p);
+        SkyMap::Level &level = (*levels)[l];
         level.radiance.resize(size_t(NZ) * NP);
         for (int iz = 0; iz < NZ; ++iz)
             for (int ip = 0; ip < NP; ++ip)
                 level.radiance[size_t(iz) * NP + ip] =
-                    arriving_radiance(air, sun, ground_albedo, p, cell_direction(frame, l, iz, ip));
+                    arriving_radiance(air, sun_up, ground_albedo, p, cell_direction(frame, l, iz, ip));
         finish_level(level, m.horizon[l % NA]);
     });
     // Then twice scattered light: along each cell's ray, the first map's light scattered
     // back by the air (air_segment's with the map). Higher orders follow a geometric series in
     // each level's ratio of the two (at most 0.8).
-    std::vector<std::vector<Spectrum>> twice(m.levels.size());
-    parallel_for(m.levels.size(), [&](size_t l) {
+    std::vector<std::vector<Spectrum>> twice(levels->size());
+    parallel_for(levels->size(), [&](size_t l) {
         const Vec3 p = origin(l);
-        const LocalFrame frame(air.center, air.planet_radius, sun.to_sun, p);
+        const LocalFrame frame(air.center, air.planet_radius, up.to_sun, p);
         const Real mu_h = m.horizon[l % NA];
         twice[l].resize(size_t(NZ) * NP);
         Spectrum total(0.0);
@@ -172,18 +186,19 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
                 const Vec3 d = cell_direction(frame, l, iz, ip);
                 Real g0, g1;
                 const bool ground = sphere_roots(air.center, air.planet_radius, p, d, g0, g1) && g0 > 0;
-                const Spectrum L = air_segment(air, Ray{p, d, 0, kInfinity}, ground ? g0 : kInfinity, nullptr, &m).light_integral();
+                const Spectrum L = air_segment(air, Ray{p, d, 0, kInfinity}, ground ? g0 : kInfinity, nullptr, &up).light_integral();
                 twice[l][size_t(iz) * NP + ip] = L;
                 total += L * ((zenith_cosine(Real(iz + 1) / NZ, mu_h) - zenith_cosine(Real(iz) / NZ, mu_h)) * (2 * kPi / NP));
             }
-        const Spectrum ratio = min(safe_div(total, m.levels[l].total), Spectrum(0.8));
+        const Spectrum ratio = min(safe_div(total, (*levels)[l].total), Spectrum(0.8));
         for (Spectrum &L : twice[l]) L = L / (Spectrum(1.0) - ratio);
     });
-    parallel_for(m.levels.size(), [&](size_t l) {
-        SkyMap::Level &level = m.levels[l];
+    parallel_for(levels->size(), [&](size_t l) {
+        SkyMap::Level &level = (*levels)[l];
         for (size_t c = 0; c < level.radiance.size(); ++c) level.radiance[c] += twice[l][c];
         finish_level(level, m.horizon[l % NA]);
     });
+    m.levels = levels;
     return map;
 }
 
@@ -196,7 +211,7 @@ SkyMap::Point SkyMap::at(const Vec3 &p) const {
                       ? std::clamp(int(std::lround((frame.sun_elevation - elevation_lo) / elevation_step)), 0, NE - 1)
                       : 0;
     return {frame.up, frame.toward_sun, frame.across,
-            {&levels[size_t(k) * NA + j0], &levels[size_t(k) * NA + j1]},
+            {&(*levels)[size_t(k) * NA + j0], &(*levels)[size_t(k) * NA + j1]},
             {horizon[j0], horizon[j1]}, {1 - w1, w1}};
 }
 

@@ -37,6 +37,12 @@ int Scene::add_light(const Light &l) {
     return int(lights.size()) - 1;
 }
 
+void Scene::set_light(int i, const Light &l) {
+    if (lights.at(size_t(i)).index() != l.index()) throw std::invalid_argument("a light can only be replaced by one of its kind");
+    lights[size_t(i)] = l;
+    built = false;
+}
+
 Real Scene::light_select_pdf(int light, bool mis) const {
     if (!mis) return lights.empty() ? 0.0 : 1.0 / Real(lights.size());
     return is_constant_environment(lights[light]) ? 0.0 : 1.0 / Real(mis_nee_lights.size());
@@ -66,6 +72,7 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectr
             if (v >= mesh.positions.size()) throw std::out_of_range("triangle index out of range");
     if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
         throw std::invalid_argument("need one normal per vertex");
+    geometry_built = false;
     const int id = geometry.add_mesh(std::move(mesh));
     shapes.push_back(info);
     if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0});
@@ -76,6 +83,7 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectr
 int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance) {
     check_info(*this, info);
     if (!(s.radius > 0)) throw std::invalid_argument("sphere radius must be positive");
+    geometry_built = false;
     const int id = geometry.add_sphere(s);
     shapes.push_back(info);
     if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0});
@@ -85,6 +93,7 @@ int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectr
 
 int Scene::add_shape_box(const Box &b, const ShapeInfo &info) {
     check_info(*this, info);
+    geometry_built = false;
     const int id = geometry.add_box(b);
     shapes.push_back(info);
     built = false;
@@ -92,7 +101,8 @@ int Scene::add_shape_box(const Box &b, const ShapeInfo &info) {
 }
 
 void Scene::build() {
-    geometry.build();
+    if (!geometry_built) geometry.build();
+    geometry_built = true;
     medium_container.assign(media.size(), -1);
     std::vector<int> interfaces(media.size(), 0);
     for (int i = 0; i < int(shapes.size()); ++i) {
@@ -139,7 +149,7 @@ void Scene::build() {
     for (Medium &medium : media) {
         auto *air = std::get_if<AtmosphereMedium>(&medium);
         if (!air) continue;
-        air->sky_map.reset();
+        const std::shared_ptr<const SkyMap> previous = std::move(air->sky_map);
         if (!sun || !air->use_sky_map || air->free_flight != AtmosphereMedium::FreeFlight::Guided) continue;
         Spectrum albedo(0.0);
         for (int i = 0; i < int(shapes.size()); ++i) {
@@ -149,7 +159,7 @@ void Scene::build() {
                 geometry.spheres[g.index].radius == air->planet_radius)
                 albedo = diffuse->reflectance;
         }
-        air->sky_map = build_sky_map(*air, *sun, albedo, camera.to_world.point(Vec3(0.0)));
+        air->sky_map = build_sky_map(*air, *sun, albedo, camera.to_world.point(Vec3(0.0)), previous.get());
     }
     sun_alone_under_mis = mis_nee_lights.size() == 1 && mis_nee_lights[0] == sun_light;
     local_bounds = Bounds();
