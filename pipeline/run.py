@@ -19,7 +19,7 @@ import multiprocessing
 import os
 import threading
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -42,9 +42,6 @@ class Options:
     fps: int = 24
     exposure: object = 0.0          # stops, or "auto" (video.auto_exposure)
     video_name: str = "sunrise.mp4"
-    # Tests make these frames fail on purpose, to see failures reported: VOLPATH_FAIL_FRAMES=2,5
-    fail_frames: list = field(default_factory=lambda: [
-        int(f) for f in os.environ.get("VOLPATH_FAIL_FRAMES", "").split(",") if f.strip()])
 
     def check(self):
         if self.spp < 1:
@@ -97,7 +94,7 @@ class Run:
 
     # -- bookkeeping --------------------------------------------------------------------------
     def _write_summary(self, **extra):
-        summary = {"options": {k: v for k, v in asdict(self.options).items() if k != "fail_frames"},
+        summary = {"options": asdict(self.options),
                    "frames": {str(f): self.status[f] for f in self.frames if f in self.status}, **extra}
         tmp = self.summary_path + ".tmp"
         with open(tmp, "w", encoding="utf-8") as f:
@@ -157,8 +154,7 @@ class Run:
 
     def _args(self, frame, source, threads):
         o = self.options
-        return (source, frame, o.spp, o.tracer, None, threads, frame in o.fail_frames, o.target_error or None,
-                o.denoise)
+        return source, frame, o.spp, o.tracer, None, threads, o.target_error or None, o.denoise
 
     def _render_local(self, todo, bar):
         cores = os.cpu_count() or 1

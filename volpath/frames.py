@@ -120,8 +120,7 @@ def frame_dictionary(d, animation, entry):
     return d
 
 
-def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fail=False, target_error=None,
-                 denoise=False):
+def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, target_error=None, denoise=False):
     """Render one frame; returns (image, metadata). The seed defaults to the frame number,
     so a frame is the same bits wherever and however often it is rendered. With
     ``target_error`` the frame renders to that display error and ``spp`` is the cap;
@@ -130,8 +129,6 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, fai
     from .render import render
     from .scene import load_dict
 
-    if fail:  # the pipeline's tests make a frame fail on purpose (VOLPATH_FAIL_FRAMES)
-        raise RuntimeError(f"frame {frame}: failure requested by VOLPATH_FAIL_FRAMES")
     d, directory, animation = _load(source)
     entries = [e for e in animation["frames"] if e["frame"] == frame]
     if not entries:

@@ -5,6 +5,7 @@ import os
 
 import pytest
 
+import faults
 import volpath
 from blender_scenes import bpy, tiny_animation
 
@@ -62,7 +63,8 @@ def test_cancel_keeps_finished_frames_and_a_second_run_renders_the_rest(tmp_path
 def test_a_failing_frame_is_reported(tmp_path, capfd, monkeypatch):
     tiny_animation(frames=3)
     _settings(tmp_path)
-    monkeypatch.setenv("VOLPATH_FAIL_FRAMES", "2")
+    for name, value in faults.environment([2]).items():
+        monkeypatch.setenv(name, value)
     # An error in the report makes bpy.ops raise, as in Blender's own scripts.
     with pytest.raises(RuntimeError, match="Volpath: frame 2 failed: RuntimeError"):
         bpy.ops.volpath.render_video()

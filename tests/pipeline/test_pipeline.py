@@ -12,6 +12,7 @@ import time
 import numpy as np
 import pytest
 
+import faults
 import volpath
 from blender_scenes import ROOT, bpy, tiny_animation
 
@@ -158,9 +159,9 @@ def test_a_failing_frame_is_retried_reported_and_the_rest_completes(tmp_path):
 
     blend = tiny_animation(tmp_path / "tiny.blend")
     out = tmp_path / "out"
-    r = cli("--blend", blend, "--out", out, env={"VOLPATH_FAIL_FRAMES": "2"})
+    r = cli("--blend", blend, "--out", out, env=faults.environment([2]))
     assert r.returncode == 1
-    assert "frame 2 failed: RuntimeError: frame 2: failure requested" in r.stdout
+    assert "frame 2 failed: RuntimeError: frame 2: failure injected" in r.stdout
     summary = json.loads((out / "summary.json").read_text())["frames"]
     assert summary["2"]["status"] == "failed" and summary["2"]["attempts"] == 2
     assert all(summary[str(f)]["status"] == "rendered" for f in (1, 3, 4))
