@@ -99,7 +99,7 @@ $(SUNRISE_BLEND): scenes/sunrise/build.py $(VENV)/.native
 	$(PY) scenes/sunrise/build.py $@
 
 sunrise: setup $(SUNRISE_BLEND)
-	$(PY) -m pipeline.sunrise --blend $(SUNRISE_BLEND) --frames $(FRAMES) --spp $(SPP) --target-error $(TARGET) \
+	$(PY) -m addon.sunrise --blend $(SUNRISE_BLEND) --frames $(FRAMES) --spp $(SPP) --target-error $(TARGET) \
 	  $(DENOISE) --res $(RES) --out out/sunrise
 	@echo "video: out/sunrise/sunrise.mp4"
 

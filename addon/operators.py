@@ -1,20 +1,12 @@
 """Operators: export the scene as a Volpath scene directory; render the animation to a
 video through the sunrise pipeline, in the background, with progress and cancel."""
 
-import importlib
 import os
 import threading
 import time
 
 import bpy
 from bpy.props import StringProperty
-
-
-def _pipeline(module):
-    """The pipeline package beside this add-on (in the repository, or inside the
-    installed extension as bl_ext.<repo>.volpath.pipeline)."""
-    parent = __package__.rpartition(".")[0]
-    return importlib.import_module(f"{parent}.pipeline.{module}" if parent else f"pipeline.{module}")
 
 
 class VOLPATH_OT_export_scene(bpy.types.Operator):
@@ -51,12 +43,13 @@ class VideoJob:
     in a background thread (frames in worker processes or on Dask), polled by a timer."""
 
     def __init__(self, scene):
-        Options = _pipeline("run").Options
-        settings_to_frames = _pipeline("sunrise").settings_to_frames
+        from pipeline.run import Options, Run
+
+        from .export.animation import export_animation, frame_list
 
         s = scene.volpath
         self.out_dir = bpy.path.abspath(s.video_directory)
-        self.frames = settings_to_frames(scene, step=s.video_step)
+        self.frames = frame_list(scene, step=s.video_step)
         options = Options(spp=s.spp, target_error=s.adaptive_threshold if s.use_adaptive_sampling else 0.0,
                           denoise=s.use_denoising,
                           tracer=s.tracer, workers=s.video_workers, threads=s.threads,
@@ -65,8 +58,10 @@ class VideoJob:
         self.cancel = threading.Event()
         self.done = self.total = 0
         self.started = time.monotonic()
-        self.run, self.warnings = _pipeline("export").prepare_run(scene, self.frames, self.out_dir, options,
-                                              progress=self._progress, cancel=self.cancel)
+        options.check()  # before the export, which may take a while
+        animation_dir = os.path.join(self.out_dir, "scene")
+        self.warnings = export_animation(scene, self.frames, animation_dir)
+        self.run = Run(animation_dir, self.out_dir, self.frames, options, progress=self._progress, cancel=self.cancel)
         self.summary = self.error = None
         self.thread = threading.Thread(target=self._work, name="volpath-video", daemon=True)
         self.thread.start()
@@ -112,7 +107,8 @@ class VideoJob:
         return {"FINISHED"}
 
     def _show_last_frame(self):
-        exr_path = _pipeline("run").exr_path
+        from pipeline.run import exr_path
+
         finished = [f for f in self.frames if self.run.status.get(f, {}).get("status") in ("rendered", "kept")]
         if not finished:
             return

@@ -113,7 +113,7 @@ def main():
     import addon
     import volpath
     from pipeline import video
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath.frames import render_frame
 
     if args.sky:

@@ -32,7 +32,7 @@ def main():
 
     import addon
     import volpath
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath import frames as F
 
     addon.register()

@@ -26,7 +26,7 @@ def main():
     from distributed import LocalCluster
 
     import addon
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from pipeline.run import Options, Run
 
     addon.register()

@@ -48,7 +48,7 @@ def main():
     import addon
     import volpath
     from pipeline import video
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath.frames import _load, frame_dictionary
 
     addon.register()

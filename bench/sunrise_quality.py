@@ -38,7 +38,7 @@ def references(frames, shape):
         import bpy
 
         import addon
-        from pipeline.export import export_animation
+        from addon.export.animation import export_animation
         from volpath.frames import render_frame
 
         addon.register()

@@ -14,11 +14,14 @@ the others go on.
 """
 
 import concurrent.futures as cf
+import contextlib
 import json
 import multiprocessing
 import os
+import sys
 import threading
 import time
+import types
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -167,7 +170,8 @@ class Run:
             pending = {}
 
             def submit(frame, attempt):
-                pending[pool.submit(render_frame, *self._args(frame, source, threads))] = (frame, attempt)
+                with _main_hidden():  # submit may start a worker
+                    pending[pool.submit(render_frame, *self._args(frame, source, threads))] = (frame, attempt)
 
             for f in todo:
                 submit(f, 1)
@@ -257,6 +261,19 @@ class Run:
 
     def failed(self):
         return [f for f in self.frames if self.status.get(f, {}).get("status") == "failed"]
+
+
+@contextlib.contextmanager
+def _main_hidden():
+    """Spawned workers run the caller's __main__ again (multiprocessing's spawn imports it,
+    by name or path), which may import Blender, render, or worse; render_frame needs none
+    of it. While a worker starts, __main__ is an empty module."""
+    main = sys.modules["__main__"]
+    sys.modules["__main__"] = types.ModuleType("__main__")
+    try:
+        yield
+    finally:
+        sys.modules["__main__"] = main
 
 
 def _outcome(future):

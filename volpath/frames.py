@@ -1,19 +1,11 @@
 """Frames of an exported animation: one scene plus, per frame, the sun directions and the
-camera (what Blender evaluated at that frame).
+camera (what Blender evaluated at that frame), and the grids of VDB sequences.
 
 An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
-``animation.json``::
-
-    {"suns": {"<scene key>": "<Blender object>"},
-     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4,
-                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...]}
-
-(``volumes`` only for VDB sequences: their grids at that frame, as scene-language volumes:
-a ``vdbvolume``: a copy of the frame's .vdb, or an emitting volume's radiance written sparse.)
-
-``render_frame`` is what a worker runs (a local process or a Dask worker): it needs only
-this package, never Blender. The animation arrives as a directory path or, for workers on
-other machines, as the bytes of a zip of that directory.
+``animation.json``; the Blender add-on writes it (``addon/export/animation.py``, where its
+format is described). ``render_frame`` is what a worker runs (a local process or a Dask
+worker): it needs only this package, never Blender. The animation arrives as a directory
+path or, for workers on other machines, as the bytes of a zip of that directory.
 """
 
 import copy

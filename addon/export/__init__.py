@@ -3,7 +3,8 @@
     exported = export_scene(depsgraph)          # in memory, for F12
     volpath.load_dict(exported.scene)
     write_directory(exported, "out/scene")      # scene.xml + meshes/*.ply + volumes/*.vdb
-    animation(scene, frames)                    # per-frame sun directions and camera
+
+An animation (the scene plus what moves per frame) is animation.py's.
 
 Everything that cannot be exported faithfully is listed in ``exported.warnings`` (the
 engine shows them in Blender's report); what cannot be exported at all raises ExportError.
@@ -149,27 +150,6 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
             if exterior is not None:
                 shape["exterior"] = exterior
         yield (obj.name if len(parts) == 1 else f"{obj.name}.{m.name if m else index}"), shape
-
-
-def animation(scene, frames):
-    """Per frame: the scene-space direction of every Sun lamp and the camera's to_world,
-    evaluated by Blender itself (``frame_set``), so fcurves, drivers and constraints count."""
-    import bpy
-
-    current = scene.frame_current
-    out = []
-    try:
-        for f in frames:
-            scene.frame_set(f)
-            depsgraph = bpy.context.evaluated_depsgraph_get()
-            suns = {o.name: lights.sun_direction(o.evaluated_get(depsgraph)).tolist()
-                    for o in scene.objects if o.type == "LIGHT" and o.data.type == "SUN"}
-            cam = scene.camera.evaluated_get(depsgraph) if scene.camera else None
-            out.append({"frame": f, "suns": suns,
-                        "camera": camera.to_world(cam).tolist() if cam is not None else None})
-    finally:
-        scene.frame_set(current)
-    return out
 
 
 def write_directory(exported, directory):

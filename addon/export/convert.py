@@ -16,6 +16,11 @@ def matrix(m):
     return BLENDER_TO_SCENE @ np.array(m, dtype=np.float64).reshape(4, 4)
 
 
+def point(v):
+    """A Blender world point as a scene point."""
+    return BLENDER_TO_SCENE[:3, :3] @ np.array(v, dtype=np.float64).reshape(3)
+
+
 def direction(v):
     """A Blender world direction as a scene direction (unit length)."""
     d = BLENDER_TO_SCENE[:3, :3] @ np.array(v, dtype=np.float64).reshape(3)

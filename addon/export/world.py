@@ -61,7 +61,7 @@ def _sky(node, scene, strength, report, has_sun_lamp):
     preset = ATMOSPHERE_PRESETS[settings.atmosphere_preset]
     radius = preset["planet_radius"]
     # The Blender scene's origin sits `altitude` metres above sea level, as in Cycles.
-    air["center"] = np.array([0.0, -(radius + float(node.altitude)) / unit, 0.0])
+    air["center"] = convert.point([0.0, 0.0, -(radius + float(node.altitude)) / unit])
     air["rayleigh_scattering"] = convert.rgb(np.asarray(preset["rayleigh_scattering"]) * node.air_density)
     air["mie_scattering"] = float(preset["mie_scattering"] * node.aerosol_density)
     air["mie_extinction"] = float(preset["mie_extinction"] * node.aerosol_density)

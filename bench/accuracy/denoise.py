@@ -54,7 +54,7 @@ def sunrise_renderers(frames, res):
     import bpy
 
     import addon
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath.frames import render_frame
 
     addon.register()

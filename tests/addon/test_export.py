@@ -1,5 +1,6 @@
 """The exporter: what a Blender scene becomes, and that both ways of rendering it agree."""
 
+import json
 import math
 
 import numpy as np
@@ -7,7 +8,8 @@ import pytest
 
 import volpath
 from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene
-from addon.export import ExportError, animation, export_scene, write_directory
+from addon.export import ExportError, export_scene, write_directory
+from addon.export.animation import export_animation
 from addon.export.convert import BLENDER_TO_SCENE
 from volpath.adaptive import SLACK
 
@@ -138,7 +140,7 @@ def test_camera_fit_and_shift(blank):
     assert c["shift_x"] == pytest.approx(0.1)
 
 
-def test_keyframed_sun_directions_match_frame_set(blank):
+def test_keyframed_sun_directions_match_frame_set(blank, tmp_path):
     add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     sun = bpy.context.object
@@ -155,7 +157,8 @@ def test_keyframed_sun_directions_match_frame_set(blank):
     track = blank.camera.constraints.new("TRACK_TO")
     track.target = target
     frames = list(range(1, 10))
-    anim = animation(blank, frames)
+    export_animation(blank, frames, str(tmp_path))
+    anim = json.loads((tmp_path / "animation.json").read_text())["frames"]
     assert [a["frame"] for a in anim] == frames
     directions = []
     for a in anim:

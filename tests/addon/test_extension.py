@@ -38,7 +38,10 @@ SCRIPT = textwrap.dedent('''
     scene.render.filepath = os.path.join(sys.argv[2], "f12.exr")
     bpy.ops.render.render(write_still=True)
     image = volpath.read_exr(scene.render.filepath)
-    print(json.dumps({"volpath": volpath.__file__, "mean": float(image[..., :3].mean())}))
+    from bl_ext.user_default.volpath.addon.export.animation import frame_list
+    import pipeline.run  # what the video operator imports
+    print(json.dumps({"volpath": volpath.__file__, "pipeline": pipeline.run.__file__,
+                      "frames": frame_list(scene), "mean": float(image[..., :3].mean())}))
 ''')
 
 
@@ -55,4 +58,5 @@ def test_extension_installs_and_renders(tmp_path):
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["volpath"].startswith(str(user / "extensions"))  # the bundled wheel
+    assert out["pipeline"].startswith(str(user / "extensions")) and out["frames"] == list(range(1, 251))
     assert out["mean"] > 0

@@ -20,7 +20,7 @@ FRAMES = 4
 
 
 def cli(*args, env=None, **kw):
-    return subprocess.run([sys.executable, "-m", "pipeline.sunrise", *map(str, args)], cwd=ROOT,
+    return subprocess.run([sys.executable, "-m", "addon.sunrise", *map(str, args)], cwd=ROOT,
                           capture_output=True, text=True, env={**os.environ, **(env or {})}, **kw)
 
 
@@ -86,7 +86,7 @@ def test_denoised_frames_say_so_and_resume_by_it(tmp_path):
 
 
 def test_blender_entry_point(tmp_path):
-    """`blender -b tiny.blend --python pipeline/sunrise.py -- ...`: Blender runs the file as
+    """`blender -b tiny.blend --python addon/sunrise.py -- ...`: Blender runs the file as
     __main__ with the .blend open and its own arguments before `--` (simulated with the
     bpy module: no Blender executable is installed here)."""
     blend = tiny_animation(tmp_path / "tiny.blend", frames=2)
@@ -95,9 +95,9 @@ def test_blender_entry_point(tmp_path):
         import runpy, sys
         import bpy
         bpy.ops.wm.open_mainfile(filepath={str(blend)!r})
-        sys.argv = ["blender", "-b", {str(blend)!r}, "--python", "pipeline/sunrise.py", "--",
+        sys.argv = ["blender", "-b", {str(blend)!r}, "--python", "addon/sunrise.py", "--",
                     "--out", {str(out)!r}, "--res", "32x18", "--spp", "2"]
-        runpy.run_path("pipeline/sunrise.py", run_name="__main__")
+        runpy.run_path("addon/sunrise.py", run_name="__main__")
     """)
     r = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -108,7 +108,7 @@ def test_blender_entry_point(tmp_path):
 def test_kill_then_resume_renders_only_what_is_missing(tmp_path):
     blend = tiny_animation(tmp_path / "tiny.blend", frames=8, spp=64, sky=True)
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "pipeline.sunrise", "--blend", str(blend), "--out", str(out),
+    p = subprocess.Popen([sys.executable, "-m", "addon.sunrise", "--blend", str(blend), "--out", str(out),
                           "--workers", "1", "--threads", "1"], cwd=ROOT, start_new_session=True,
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
@@ -134,7 +134,7 @@ def test_kill_then_resume_renders_only_what_is_missing(tmp_path):
 def test_dask_cluster_gives_the_same_bits_as_the_local_pool(tmp_path):
     from distributed import LocalCluster
 
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from pipeline.run import Options, Run, exr_path
 
     tiny_animation(tmp_path / "tiny.blend", frames=3)
@@ -202,7 +202,7 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
     from blender_scenes import add_camera, add_volume, blank_scene, set_background, volume_material, write_vdb
 
     from addon.export import export_scene
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath.frames import render_frame
 
     scene = blank_scene()
@@ -237,7 +237,7 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
 def test_a_worker_builds_the_scene_once_and_each_frame_is_the_bits_of_a_fresh_load(tmp_path):
     """render_frame keeps a worker's scene and moves its sun and camera from frame to frame
     (Scene.update); a frame is the same bits as the frame rendered by a fresh worker."""
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath import frames
 
     tiny_animation(frames=3, sky=True)
@@ -251,3 +251,28 @@ def test_a_worker_builds_the_scene_once_and_each_frame_is_the_bits_of_a_fresh_lo
         assert np.array_equal(image, fresh), frame
         frames._scenes[str(tmp_path / "anim")] = kept[-1]
     assert kept[0] is kept[1] is kept[2]
+
+
+def test_workers_do_not_run_the_callers_script_again(tmp_path):
+    """A script that runs the pipeline at its top level, with no __main__ guard: the pool's
+    spawn workers render frames without running the script again."""
+    from addon.export.animation import export_animation
+
+    tiny_animation(frames=2)
+    export_animation(bpy.context.scene, [1, 2], str(tmp_path / "anim"))
+    script, runs = tmp_path / "render.py", tmp_path / "runs.txt"
+    script.write_text(textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {ROOT!r})
+        with open({str(runs)!r}, "a") as f:
+            f.write("run\\n")
+        from pipeline.run import Options, Run
+        run = Run({str(tmp_path / "anim")!r}, {str(tmp_path / "out")!r}, [1, 2], Options(spp=1, workers=2),
+                  progress=lambda *a: None)
+        run.render()
+        assert not run.failed(), run.status
+    """))
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert runs.read_text() == "run\n"
+    assert frames_on_disk(tmp_path / "out") == ["frame_0001.exr", "frame_0002.exr"]

@@ -38,7 +38,7 @@ def sunrise_frame(tmp):
     import bpy
 
     from blender_scenes import blank_scene
-    from pipeline.export import export_animation
+    from addon.export.animation import export_animation
     from volpath.frames import render_frame
 
     blend = os.path.join(tmp, "sunrise.blend")

@@ -1,7 +1,8 @@
-"""Render a Blender animation (by default the sunrise) to EXR frames and an H.264 video.
+"""Render a Blender animation (by default the sunrise) to EXR frames and an H.264 video:
+the pipeline from the command line, with the bpy module or inside Blender.
 
-    python -m pipeline.sunrise [--blend scenes/sunrise/sunrise.blend] [options]
-    blender -b scenes/sunrise/sunrise.blend --python pipeline/sunrise.py -- [options]
+    python -m addon.sunrise [--blend scenes/sunrise/sunrise.blend] [options]
+    blender -b scenes/sunrise/sunrise.blend --python addon/sunrise.py -- [options]
 
 Exit status: 0 when every frame rendered, 1 when some failed (the video holds the rest),
 2 for bad options or a scene that cannot be exported.
@@ -15,7 +16,7 @@ import time
 
 if __name__ == "__main__" and not __package__:  # run as a file by `blender --python`
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    from pipeline.sunrise import main
+    from addon.sunrise import main
 
     sys.exit(main())
 
@@ -81,7 +82,7 @@ def _count(minimum):
 
 
 def parser():
-    p = argparse.ArgumentParser(prog="python -m pipeline.sunrise", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m addon.sunrise", description=__doc__.split("\n\n")[0])
     p.add_argument("--blend", help=f"the .blend to render (default: the open file inside Blender, else {DEFAULT_BLEND})")
     p.add_argument("--frames", type=_frames, help="frame or range, e.g. 1-72 (default: the scene's range)")
     p.add_argument("--step", type=_count(1), help="render every STEP-th frame (default: the scene's frame step)")
@@ -116,11 +117,13 @@ def main(argv=None):
     args = parser().parse_args(_user_args(argv))
     import bpy
 
-    from . import sibling
-    from .run import Options
+    from pipeline.run import Options
+
+    from . import register
+    from .export.animation import frame_list
 
     if not hasattr(bpy.types.Scene, "volpath"):  # plain Python, or Blender without the extension
-        sibling("addon").register()
+        register()
     if args.blend:
         if not os.path.isfile(args.blend):
             print(f"error: {args.blend}: no such .blend file", file=sys.stderr)
@@ -134,7 +137,7 @@ def main(argv=None):
         bpy.ops.wm.open_mainfile(filepath=DEFAULT_BLEND)
     scene = bpy.context.scene
     try:
-        frames = settings_to_frames(scene, args.frames, args.step)
+        frames = frame_list(scene, args.frames, args.step)
         s = scene.volpath
         target = args.target_error if args.target_error is not None else \
             (s.adaptive_threshold if s.use_adaptive_sampling else 0.0)
@@ -152,25 +155,21 @@ def main(argv=None):
     return render_animation(scene, frames, args.out, options)
 
 
-def settings_to_frames(scene, frames=None, step=None):
-    first, last = frames or (scene.frame_start, scene.frame_end)
-    step = scene.frame_step if step is None else step
-    if step < 1:
-        raise ValueError(f"the frame step must be at least 1, got {step}")
-    return list(range(first, last + 1, step))
-
-
 def render_animation(scene, frames, out, options):
     """Export, render, make the video; returns the exit status."""
-    from . import sibling
-    from .export import prepare_run
+    from pipeline.run import Run
+
+    from .export import ExportError
+    from .export.animation import export_animation
 
     start = time.monotonic()
+    animation_dir = os.path.join(out, "scene")
     try:
-        run, warnings = prepare_run(scene, frames, out, options)
-    except sibling("addon.export").ExportError as e:
+        warnings = export_animation(scene, frames, animation_dir)
+    except ExportError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    run = Run(animation_dir, out, frames, options)
     for w in warnings:
         print(f"warning: {w}", file=sys.stderr)
     summary = run.execute()
