@@ -791,9 +791,6 @@ class _Builder:
         # Free flights: guided toward the sunlit air (transmittances by quadrature), or delta
         # tracking, which the fully unbiased sun_transmittance="tracking" implies.
         flight = p.str("free_flight", "tracking" if sun == "tracking" else "guided", ("guided", "tracking"))
-        if flight == "guided" and sun == "tracking":
-            raise p.error("free_flight='guided' takes transmittances by quadrature: it needs "
-                          "sun_transmittance 'table' or 'quadrature', not 'tracking'")
         # The sky map (directions after scattering, control variates): off only to measure it.
         sky_map = p.bool("sky_map", True)
         albedo = p.rgb("ground_albedo", preset["ground_albedo"])

@@ -3,6 +3,7 @@
 // found by another strategy must agree with it (checked by the chi-square tests).
 #pragma once
 
+#include <stdexcept>
 #include <variant>
 #include <vector>
 
@@ -47,6 +48,12 @@ struct SunLight {
     Real cos_max = 0.99998907;
     Spectrum radiance;
 };
+// The sun of irradiance E at normal incidence, angular radius in (0, 0.5) rad.
+inline SunLight sun_light(const Vec3 &to_sun, Real angular_radius, const Spectrum &E) {
+    if (!(angular_radius > 0 && angular_radius < 0.5)) throw std::invalid_argument("sun angular radius must be in (0, 0.5) rad");
+    const Real sin_r = std::sin(angular_radius);
+    return {normalize(to_sun), std::cos(angular_radius), E / (kPi * sin_r * sin_r)};
+}
 
 using Light = std::variant<PointLight, DirectionalLight, AreaLight, EnvironmentLight, SunLight>;
 

@@ -1,0 +1,46 @@
+// What the bindings share: numpy and tuple conversions.
+#pragma once
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <array>
+
+#include "volpath/scene.h"
+
+namespace py = pybind11;
+
+namespace volpath::bindings {
+
+using Array3 = std::array<double, 3>;
+inline Vec3 vec(const Array3 &a) { return {a[0], a[1], a[2]}; }
+
+inline Transform transform(const py::array_t<double, py::array::c_style | py::array::forcecast> &m) {
+    if (m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4)
+        throw std::invalid_argument("expected a 4x4 matrix");
+    Transform t;
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) t.m[i][j] = m.at(i, j);
+    return t;
+}
+
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+inline std::vector<Vec3> points(const DoubleArray &a, const char *what) {
+    if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must have shape (n, 3)");
+    std::vector<Vec3> out(size_t(a.shape(0)));
+    for (size_t i = 0; i < out.size(); ++i) out[i] = {a.at(i, 0), a.at(i, 1), a.at(i, 2)};
+    return out;
+}
+
+inline PhaseFunction phase(double g) {
+    if (g == 0) return IsotropicPhase{};
+    return HenyeyGreenstein{g};
+}
+
+// The tests' probes into the core's parts (samplers, media, lights, BSDFs): probes.cpp.
+void bind_probes(py::module_ &m);
+
+}  // namespace volpath::bindings
