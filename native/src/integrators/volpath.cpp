@@ -295,261 +295,72 @@ struct FirstHit {
     Intersection its;
 };
 
-// `gathered`: the sample's radiance from the camera's other branch (drawn from a stream of
-// its own), which Russian roulette's check counts with the path's L. `first`: where `ray`
-// meets the scene, if known.
-Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config,
-                       Branch branch, const Spectrum &gathered = Spectrum(0.0), const FirstHit *first = nullptr) {
-    const Features feat = features_of(config);
-    Spectrum L(0.0), beta(1.0), r_u(1.0), r_l(1.0);
-    const int channel = std::min(int(sampler.next_1d() * 3), 2);
-    int depth = 0;              // real scattering events so far
+// What a step leaves to the path's loop: the ray reached the end of its segment (a surface,
+// or nothing), a new ray to follow, or the end of the path.
+enum class Step { Reached, NewRay, Ended };
+
+// One path's estimate (pbrt-v4's VolPathIntegrator::Li): its state, and the steps its loop
+// takes through media and at surfaces. The weights follow pbrt-v4's rescaled path
+// probabilities: r_u for the path's own sampling, r_l for the light strategy's.
+struct Path {
+    const Scene &scene;
+    const TracerConfig &config;
+    const Features feat;
+    Sampler &sampler;
+    Ray ray;
+    int medium;
+    Branch branch;
+    // The sample's radiance from the camera's other branch (drawn from a stream of its
+    // own), which Russian roulette's check counts with the path's L.
+    const Spectrum gathered;
+    Spectrum L{0.0}, beta{1.0}, r_u{1.0}, r_l{1.0};
+    const int channel;
+    int depth = 0;                // real scattering events so far
     bool specular_bounce = true;  // the camera counts as specular: nothing to MIS with
-    Vec3 prev_p = ray.o;
+    Vec3 prev_p;
     int null_collisions = 0, null_crossings = 0;
     // The last scattering vertex, when a distance drawn for a light could have made it too:
     // r_ld is that strategy's rescaled pdf for the path since (updated like r_l), without
     // its density at the vertex, which depends on the light the path finds.
     std::optional<SegmentVertex> scattered_at;
-    Spectrum r_ld(0.0);
-    auto scale_r_l = [&](const Spectrum &factor) {
-        r_l *= factor;
-        r_ld *= factor;
-    };
+    Spectrum r_ld{0.0};
+
+    Path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config, Branch branch,
+         const Spectrum &gathered)
+        : scene(scene), config(config), feat(features_of(config)), sampler(sampler), ray(ray), medium(medium),
+          branch(branch), gathered(gathered), channel(std::min(int(sampler.next_1d() * 3), 2)), prev_p(ray.o) {}
+
+    Spectrum trace(const FirstHit *first);
+
+    // Steps through the current medium up to t_end.
+    Step fly_through_air(bool hit, const Intersection &its, Real t_end);
+    enum class Flight { Crossed, Scattered, Ended };
+    Flight guided_flight(const Medium &m, bool hit, const Intersection &its, Real t_end, bool clear);
+    bool leaves_for_empty_space(bool hit, const Intersection &its) const;
+    Step fly_through_medium(Real t_end);
+    // At the segment's end.
+    void add_infinite_lights(const Intersection &its);
+    Step at_surface(const Intersection &its);
+
+    // Scattering and what it gathers.
+    bool scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex = nullptr);
+    bool roulette_after_sky_model(const Spectrum &arriving);
+    bool roulette();
+    Spectrum direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
+                              const SegmentVertex *vertex, const SkyPoint *sky = nullptr);
+    void segment_direct(const Medium &m, const HomogeneousMedium &h, Real t_end);
+    void add_medium_emission(const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg);
+    void add_emission(const Spectrum &Le, int light, Real pdf_light_dir);
 
     // No further scattering allowed: only emitters hit by the next ray could still count.
-    auto last_vertex = [&] { return feat.max_depth >= 0 && depth + 1 >= feat.max_depth; };
+    bool last_vertex() const { return feat.max_depth >= 0 && depth + 1 >= feat.max_depth; }
+    void scale_r_l(const Spectrum &factor) {
+        r_l *= factor;
+        r_ld *= factor;
+    }
+};
 
-    // Medium emission sigma_a Le at a tentative collision, found with density
-    // T_seg sigma_maj (pbrt-v4): only path sampling finds it, so its weight is 1 / r_e.
-    auto add_medium_emission = [&](const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
-        if (is_black(mp.Le) || (feat.max_depth >= 0 && depth >= feat.max_depth)) return;
-        const Real pdf = T_seg[channel] * sigma_maj[channel];
-        const Spectrum r_e = r_u * sigma_maj * T_seg / pdf;
-        if (pdf > 0 && average(r_e) > 0) L += beta * T_seg / pdf * mp.sigma_a * mp.Le / average(r_e);
-    };
-
-    // Emission of `light` found by following the path: weighted against NEE from both
-    // distance strategies where they can find it.
-    auto add_emission = [&](const Spectrum &Le, int light, Real pdf_light_dir) {
-        if (is_black(Le)) return;
-        if (specular_bounce) {
-            L += beta * Le / average(r_u);
-        } else if (feat.emission_after_scatter) {
-            if (!feat.mis) {
-                L += beta * Le / average(r_u);
-            } else {
-                // After a collision in a homogeneous medium, NEE finds segment lights from
-                // the segment's distance, environments from the collision (SegmentVertex).
-                Real r_light_distance = 0;
-                if (scattered_at) {
-                    const SegmentVertex &v = *scattered_at;
-                    r_light_distance = average(r_ld * light_distance_density(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
-                                               (segment_light_select_pdf(scene) * pdf_light_dir));
-                }
-                const Real select = scattered_at ? scene.collision_light_select_pdf(light, true)
-                                                 : scene.light_select_pdf(light, true);
-                const Spectrum r_light = r_l * (select * pdf_light_dir);
-                L += beta * Le * mis_over_a(average(r_u), average(r_light), r_light_distance);
-            }
-        }
-    };
-
-    // NEE from a point in a medium, reached along ray.d with weight beta_p; `sky`: the
-    // directions after scattering there mix in the sky map's.
-    auto direct_in_medium = [&](const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p,
-                                const Spectrum &r_p, const SegmentVertex *vertex, const SkyPoint *sky = nullptr) {
-        return sample_direct(
-            scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
-            [&](const Vec3 &d) { return phase_eval(phase, dot(ray.d, d)); },
-            [&](const Vec3 &d) { return sky ? sky->pdf(ray.d, d) : phase_pdf(phase, dot(ray.d, d)); }, vertex);
-    };
-
-    // The segment lights of the homogeneous segment [ray.t_min, t_end] that free flight is
-    // about to sample: NEE from the distances drawn for one of them (SegmentVertex).
-    auto segment_direct = [&](const Medium &m, const HomogeneousMedium &h, Real t_end) {
-        const int n = int(scene.segment_lights.size());
-        const int light = scene.segment_lights[std::min(int(sampler.next_1d() * n), n - 1)];
-        const Spectrum sigma_t = h.sigma_a + h.sigma_s;
-        if (!(t_end > ray.t_min)) return;
-        const LightDistances distances(scene.lights[light], ray, t_end, sigma_t);
-        for (int k = 0; k < distances.count; ++k) {
-            Real t;
-            // The second distance is drawn on some segments only: an independent number.
-            if (!distances.sample(k, k == 0 ? sampler.next_1d() : sampler.independent_1d(), channel, t)) continue;
-            const Spectrum density = distances.density(t);
-            if (!(density[channel] > 0)) continue;
-            const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, density[channel], light};
-            const Vec3 p = ray.at(t);
-            const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / density[channel];
-            L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u * density / density[channel], &vertex);
-        }
-    };
-
-    // A real scattering event at p in medium m, beta already weighted for reaching it:
-    // NEE, then phase sampling of the next ray and Russian roulette. False: the path ends.
-    auto scatter_in_medium = [&](const Vec3 &p, const Medium &m, const SegmentVertex *vertex = nullptr) {
-        ++depth;
-        const PhaseFunction phase = medium_phase(m, p);
-        const SkyMap *map = sky_map_of(m);
-        const bool models = map && map->models_light && feat.nee && scene.air_models_hold(p);
-        const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
-        if (feat.nee) {
-            if (!vertex || !scene.collision_nee_lights[feat.mis].empty())
-                L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
-            // Nothing left that the path could find?
-            if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
-        }
-        const Real u_lobe = sampler.next_1d();
-        PhaseSample ps;
-        if (!sky) {
-            ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
-        } else {
-            Real pdf_map;
-            ps.d_out = u_lobe < sky->share
-                           ? map->sample(sky->at, sampler.next_2d(), u_lobe / sky->share, pdf_map)
-                           : phase_sample(sky->lobes, ray.d, sampler.next_2d(),
-                                          (u_lobe - sky->share) / (1 - sky->share), channel).d_out;
-            ps.value = phase_eval(phase, dot(ray.d, ps.d_out));
-            ps.pdf = sky->pdf(ray.d, ps.d_out);
-        }
-        const Real pdf_c = ps.pdf[channel];
-        if (!(pdf_c > 0)) return false;
-        const bool sky_model = models && !last_vertex();
-        // The map's light scattered here as a control variate: its integral over directions,
-        // less its value in the direction drawn (the path then brings the light that truly
-        // arrives from there). Rayleigh's share integrates exactly (SkyMap::rayleigh_integral);
-        // Mie's by an unbiased estimate from the map alone: directions of its lobe (drawn
-        // like Henyey-Greenstein's, stratified, from one 2D sample), independent of d_out.
-        const Spectrum arriving = sky_model ? map->radiance(sky->at, ps.d_out) : Spectrum(0.0);
-        if (sky_model) {
-            const auto &air = std::get<RayleighMiePhase>(phase);
-            const Spectrum &rayleigh = air.rayleigh_fraction, mie = Spectrum(1.0) - rayleigh;
-            const Vec2 u = sampler.next_2d();
-            const Frame forward(ray.d);
-            Spectrum mie_integral(0.0);
-            for (int k = 0; k < kMieLobeSamples; ++k) {
-                const Real mu = hg_sample_mu(air.g, (k + u.x) / kMieLobeSamples), sin_theta = safe_sqrt(1 - mu * mu);
-                const Real phi = 2 * kPi * std::fmod(u.y + k * 0.6180339887498949, 1.0);
-                const Vec3 w = forward.to_world({sin_theta * std::cos(phi), sin_theta * std::sin(phi), mu});
-                mie_integral += map->radiance(sky->at, w) * (cornette_shanks_eval(air.g, mu) / hg_eval(air.g, mu));
-            }
-            const Real mu = dot(ray.d, ps.d_out);
-            const Spectrum integral = rayleigh * map->rayleigh_integral(sky->at, ray.d) +
-                                      mie * mie_integral / Real(kMieLobeSamples);
-            const Spectrum value = (rayleigh * rayleigh_eval(mu) + mie * cornette_shanks_eval(air.g, mu)) * arriving;
-            L += beta * (integral - value / pdf_c) / average(r_u);
-        }
-        // Lobe mixtures make the direction's pdf differ per channel.
-        beta *= ps.value / pdf_c;
-        r_l = r_u / pdf_c;
-        r_u *= ps.pdf / pdf_c;
-        if (vertex) {
-            scattered_at = *vertex;
-            r_ld = vertex->r_start / (vertex->pdf * pdf_c);
-        } else {
-            scattered_at.reset();
-        }
-        prev_p = p;
-        specular_bounce = false;
-        null_crossings = 0;
-        ray = Ray{p, ps.d_out, 0, kInfinity};
-        // Where the map models what the path brings back from d_out, M, roulette uses it as
-        // a control variate: M if the path ends here, M (1 - 1/q) and the path's light over q
-        // if it goes on. Survival at least M / (L + M) per channel, so that neither takes the
-        // sample's radiance so far below zero.
-        if (sky_model) {
-            if (depth >= kSkyRouletteDepth) {
-                const Spectrum M = beta * arriving / average(r_u);
-                Real q = kSkyRouletteSurvival;
-                for (int c = 0; c < 3; ++c)
-                    if (M[c] > 0) q = std::max(q, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
-                if (!(sampler.next_1d() < q)) {
-                    L += M;
-                    return false;
-                }
-                L += M * (1 - 1 / q);
-                beta /= q;
-            }
-            return true;
-        }
-        // Russian roulette on the channel-averaged throughput.
-        if (depth >= config.rr_depth) {
-            const Real q = std::min(max_component(beta / average(r_u)), kMaxSurvival);
-            if (!(sampler.next_1d() < q)) return false;
-            beta /= q;
-        }
-        return true;
-    };
-
-    // The guided free flight through the air (AirSegment): pass through or collide with a
-    // probability shared by all channels (the camera's first segment does both, see
-    // radiance()); collisions are drawn along the segment toward where the sun's light
-    // scatters, weighted with the table's transmittance.
-    enum class Flight { Crossed, Scattered, Ended };
-    // `hit`: the segment ends at the surface `its` (else at a cut, or nowhere); `clear`: the
-    // air's light models hold along it (see the cut in the main loop).
-    auto guided_flight = [&](const Medium &m, bool hit, const Intersection &its, Real t_end, bool clear) {
-        // The light scattered along the segment as a control variate (AirSegment::light_model):
-        // the model's integral is added, and at a collision the model's value there is taken
-        // off what the path then gathers (NEE, and past it the light the sky map models).
-        const bool light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
-        const SkyMap *map = sky_map_of(m);
-        const bool map_model = light_model && map && map->models_light &&
-                               (feat.max_depth < 0 || depth + 2 < feat.max_depth);
-        // Whether the ray leaves the air for empty space (where, under suns alone, only a
-        // sun's disc could be found).
-        auto leaves_for_empty_space = [&] {
-            if (!hit || scene.has_environment || !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) ||
-                medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) >= 0)
-                return false;
-            Intersection beyond;
-            return !scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond);
-        };
-        // The camera's pass-through branch only looks for what lies beyond: if that is empty
-        // space and no sun's disc, nothing (sky pixels, most of a sky's image).
-        if (branch == Branch::PassThrough && leaves_for_empty_space()) {
-            bool sees_a_sun = false;
-            for (int index : scene.infinite_lights)
-                sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
-            if (!sees_a_sun) return Flight::Ended;
-        }
-        // The camera's pass-through branch needs only T: no sun lookups for the guide.
-        const AirSegment seg = air_segment(*guided_air(m), ray, t_end,
-                                           branch == Branch::PassThrough ? nullptr : scene.sun_guide(),
-                                           map_model ? map : nullptr);
-        const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
-        Real p_collide = branch == Branch::Collide ? 1 : 0;
-        if (branch == Branch::All) {
-            for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;  // 1 - T by expm1: exact for thin air too
-            // Leaving the air for empty space under suns alone, a path could only find a
-            // sun's disc, which NEE from the last scattering event takes (see sample_direct):
-            // always collide. Not after the camera or a specular bounce: no NEE saw the disc.
-            if (p_collide > 0 && !specular_bounce && leaves_for_empty_space()) p_collide = 1;
-        }
-        const bool controlled = light_model && p_collide > 0 && seg.models_light;
-        if (controlled) L += beta * seg.light_integral() / average(r_u);
-        bool collide = branch == Branch::Collide;
-        Real p_event = 1;
-        if (branch == Branch::All) {
-            collide = sampler.next_1d() < p_collide;
-            p_event = collide ? p_collide : average(T);
-        }
-        branch = Branch::All;
-        if (collide) {
-            Real t, pdf;
-            if (last_vertex() || !seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
-            const Vec3 p = ray.at(t);
-            if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));
-            beta *= seg.transmittance(t) * medium_properties(m, p).sigma_s / (pdf * p_event);
-            return !is_black(beta) && scatter_in_medium(p, m) ? Flight::Scattered : Flight::Ended;
-        }
-        if (!(p_event > 0)) return Flight::Ended;
-        beta *= T / p_event;
-        scale_r_l(Spectrum(1 / p_event));  // the light strategy needs no flight through: see sample_direct
-        return Flight::Crossed;
-    };
-
+Spectrum Path::trace(const FirstHit *first) {
     for (;;) {
         Intersection its;
         bool hit;
@@ -560,206 +371,456 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
             hit = scene.intersect(ray, its, medium);
         }
         const Real t_end = hit ? its.t : ray.t_max;
-
-        // Travel through the current medium, possibly scattering in it.
-        if (medium >= 0 && feat.scatter && guided_air(scene.media[medium])) {
-            // Where the scene's own shapes may shadow the sun from the segment, the air's light
-            // models do not hold: the segment is cut where that starts or ends, and each piece
-            // is flown on its own (free flight is memoryless), the models serving as control
-            // variates on the clear pieces alone.
-            Real t_piece = t_end;
-            bool clear = scene.sun_alone_under_mis;
-            if (clear && scene.local_bounds.valid()) {
-                const Real eps = 1e-9 * (1 + std::abs(ray.t_min) + std::abs(t_end));
-                const auto [a, b] = scene.local_sun_shadow(ray, ray.t_min, t_end);
-                if (a <= b && b > ray.t_min + eps) {
-                    if (a > ray.t_min + eps) t_piece = a;  // clear up to the shadow
-                    else clear = false, t_piece = b;       // shadowed up to its end
-                }
-            }
-            const bool cut = t_piece < t_end;
-            const Flight flight = guided_flight(scene.media[medium], hit && !cut, its, t_piece, clear);
-            if (flight == Flight::Ended) return L;
-            if (flight == Flight::Scattered) continue;
-            if (cut) {
-                ray.t_min = t_piece;
-                continue;
-            }
-        } else if (medium >= 0) {
-            const Medium &m = scene.media[medium];
-            const auto *h = std::get_if<HomogeneousMedium>(&m);
-            const bool scatters = feat.scatter && !(h && is_black(h->sigma_s));
-            // The camera's first segment, when split (radiance() splits only scattering
-            // media): PassThrough crosses it with weight T_maj, Collide must collide in it.
-            Real forced = 0;
-            const bool pass_through = branch == Branch::PassThrough;
-            const bool segment_nee = h && scatters && !pass_through && feat.nee && config.light_distances &&
-                                     !scene.segment_lights.empty() && !last_vertex();
-            if (segment_nee) segment_direct(m, *h, t_end);
-            const Spectrum r_start = r_u;
-            if (branch != Branch::All) {
-                const Spectrum tau = majorant_optical_depth(m, ray, t_end);
-                if (pass_through) {
-                    const Spectrum T_maj = exp(-tau);
-                    const Real pdf = T_maj[channel];
-                    if (!(pdf > 0)) return L;
-                    beta *= T_maj;  // the branch always runs: weighted by the event's probability
-                    r_u *= T_maj / pdf;
-                    scale_r_l(h ? Spectrum(1 / pdf) : T_maj / pdf);
-                } else {
-                    forced = -std::expm1(-tau[channel]);
-                    if (!(forced > 0)) return L;
-                    beta *= forced;
-                }
-                branch = Branch::All;
-            }
-            if (!scatters && h) {
-                // Nothing scatters: transmittance and emission are exact, no sampling:
-                // the emission integral of sigma_a Le T(t) over the segment.
-                const Spectrum sigma_t = h->sigma_a + h->sigma_s;
-                const Real d = t_end - ray.t_min;
-                if (!is_black(h->Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
-                    Spectrum span;
-                    for (int c = 0; c < 3; ++c)
-                        span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
-                    L += beta * h->sigma_a * h->Le * span / average(r_u);
-                }
-                beta *= exp(-sigma_t * d);
-            } else if (!scatters) {
-                // Absorption tracer in a heterogeneous medium: ratio tracking, collecting
-                // the emission at every tentative collision.
-                const Spectrum T_maj = sample_T_maj(
-                    m, ray, t_end, channel, sampler,
-                    [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
-                        const Spectrum &T_seg) {
-                        add_medium_emission(mp, sigma_maj, T_seg);
-                        const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
-                        const Real pdf = T_seg[channel] * sigma_maj[channel];
-                        beta *= T_seg * sigma_n / pdf;
-                        r_u *= T_seg * sigma_maj / pdf;
-                        return !is_black(beta);
-                    });
-                const Real pdf = T_maj[channel];
-                if (!(pdf > 0) || is_black(beta)) return L;
-                beta *= T_maj / pdf;
-                r_u *= T_maj / pdf;
-            } else if (!pass_through) {
-                bool scattered = false, terminated = false;
-                ChoiceChain real_or_null;
-                const Spectrum T_maj = sample_T_maj(
-                    m, ray, t_end, channel, sampler,
-                    [&](const Vec3 &p, Real t, const MediumProperties &mp, const Spectrum &sigma_maj,
-                        const Spectrum &T_seg) {
-                        const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
-                        add_medium_emission(mp, sigma_maj, T_seg);
-                        // Real or null collision, in proportion to sigma_t : sigma_n in the
-                        // sampling channel. Absorption is not sampled: it weights beta. All
-                        // the segment's choices come from one uniform (ChoiceChain): the
-                        // segment is crossed where that exceeds 1 - (the tentative collisions'
-                        // ratio-tracking estimate of T), a threshold stratified over the
-                        // pixel's samples like any dimension. Measured on the heterogeneous
-                        // cube (d): 7 % lower error at equal time than a number per choice.
-                        if (real_or_null.choose(sigma_t[channel] / sigma_maj[channel], sampler)) {
-                            if (last_vertex()) {
-                                terminated = true;
-                                return false;
-                            }
-                            const Real pdf = T_seg[channel] * sigma_t[channel];
-                            beta *= T_seg * mp.sigma_s / pdf;
-                            r_u *= T_seg * sigma_t / pdf;
-                            // In a homogeneous segment T_seg runs from its start.
-                            std::optional<SegmentVertex> vertex;
-                            if (segment_nee) vertex = SegmentVertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
-                            if (is_black(beta) || !scatter_in_medium(p, m, vertex ? &*vertex : nullptr)) {
-                                terminated = true;
-                                return false;
-                            }
-                            scattered = true;
-                            return false;
-                        }
-                        if (++null_collisions > config.max_null_collisions) {
-                            terminated = true;
-                            return false;
-                        }
-                        const Spectrum sigma_n = clamp_zero(sigma_maj - sigma_t);
-                        const Real pdf = T_seg[channel] * sigma_n[channel];
-                        if (!(pdf > 0)) {
-                            terminated = true;
-                            return false;
-                        }
-                        beta *= T_seg * sigma_n / pdf;
-                        r_u *= T_seg * sigma_n / pdf;
-                        scale_r_l(T_seg * sigma_maj / pdf);
-                        return !is_black(beta);
-                    },
-                    forced);
-                if (terminated) return L;
-                if (scattered) continue;
-                // No collision before t_end. Homogeneous media are crossed by shadow rays in
-                // closed form, so the light strategy's density does not include T there.
-                const Real pdf = T_maj[channel];
-                if (!(pdf > 0)) return L;
-                beta *= T_maj / pdf;
-                r_u *= T_maj / pdf;
-                scale_r_l(is_homogeneous(m) ? Spectrum(1 / pdf) : T_maj / pdf);
-            }
+        if (medium >= 0) {
+            const Step step = feat.scatter && guided_air(scene.media[medium]) ? fly_through_air(hit, its, t_end)
+                                                                              : fly_through_medium(t_end);
+            if (step == Step::Ended) return L;
+            if (step == Step::NewRay) continue;
         }
-
         if (!hit) {
-            for (int index : scene.infinite_lights) {
-                const Light &light = scene.lights[index];
-                add_emission(infinite_radiance(light, ray.d), index,
-                             light_pdf(light, scene.geometry, prev_p, ray.d, its));
-            }
+            add_infinite_lights(its);
             return L;
         }
+        const Step step = at_surface(its);
+        if (step == Step::Ended) return L;
+    }
+}
 
-        const ShapeInfo &shape = scene.shapes[its.shape];
-        if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
-            const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-            add_emission(area.radiance, shape.light,
-                         light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
-        }
+// Medium emission sigma_a Le at a tentative collision, found with density
+// T_seg sigma_maj (pbrt-v4): only path sampling finds it, so its weight is 1 / r_e.
+void Path::add_medium_emission(const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+    if (is_black(mp.Le) || (feat.max_depth >= 0 && depth >= feat.max_depth)) return;
+    const Real pdf = T_seg[channel] * sigma_maj[channel];
+    const Spectrum r_e = r_u * sigma_maj * T_seg / pdf;
+    if (pdf > 0 && average(r_e) > 0) L += beta * T_seg / pdf * mp.sigma_a * mp.Le / average(r_e);
+}
 
-        const BSDF &bsdf = scene.bsdfs[shape.bsdf];
-        if (is_null(bsdf)) {
-            if (++null_crossings > kMaxNullCrossings) return L;
-            medium = medium_after_crossing(shape, ray.d, its.n, medium);
-            const Real t_left = ray.t_max - its.t;
-            ray = spawn_ray(its.p, its.n, ray.d, t_left);
-            continue;
-        }
-        if (!feat.scatter) return L;
-        if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) return L;
-        ++depth;
-
-        const Frame frame(its.ns);
-        const Vec3 wi = frame.to_local(-ray.d);
-        if (feat.nee && !is_delta(bsdf)) {
-            L += sample_direct(
-                scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler,
-                [&](const Vec3 &d) { return bsdf_eval(bsdf, wi, frame.to_local(d)); },
-                [&](const Vec3 &d) { return Spectrum(bsdf_pdf(bsdf, wi, frame.to_local(d))); });
-            if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return L;
-        }
-        BSDFSample bs;
-        if (!bsdf_sample(bsdf, wi, sampler.next_1d(), sampler.next_2d(), bs)) return L;
-        const Vec3 wo = frame.to_world(bs.wo);
-        beta *= bs.weight;
-        specular_bounce = bs.delta;
-        if (!bs.delta) r_l = r_u / bs.pdf;
-        scattered_at.reset();
-        prev_p = its.p;
-        null_crossings = 0;
-        medium = medium_after_crossing(shape, wo, its.n, medium);
-        ray = spawn_ray(its.p, its.n, wo);
-        if (is_black(beta)) return L;
-        if (depth >= config.rr_depth) {
-            const Real q = std::min(max_component(beta / average(r_u)), kMaxSurvival);
-            if (!(sampler.next_1d() < q)) return L;
-            beta /= q;
+// Emission of `light` found by following the path: weighted against NEE from both
+// distance strategies where they can find it.
+void Path::add_emission(const Spectrum &Le, int light, Real pdf_light_dir) {
+    if (is_black(Le)) return;
+    if (specular_bounce) {
+        L += beta * Le / average(r_u);
+    } else if (feat.emission_after_scatter) {
+        if (!feat.mis) {
+            L += beta * Le / average(r_u);
+        } else {
+            // After a collision in a homogeneous medium, NEE finds segment lights from
+            // the segment's distance, environments from the collision (SegmentVertex).
+            Real r_light_distance = 0;
+            if (scattered_at) {
+                const SegmentVertex &v = *scattered_at;
+                r_light_distance = average(r_ld * light_distance_density(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
+                                           (segment_light_select_pdf(scene) * pdf_light_dir));
+            }
+            const Real select = scattered_at ? scene.collision_light_select_pdf(light, true)
+                                             : scene.light_select_pdf(light, true);
+            const Spectrum r_light = r_l * (select * pdf_light_dir);
+            L += beta * Le * mis_over_a(average(r_u), average(r_light), r_light_distance);
         }
     }
+}
+
+// NEE from a point in a medium, reached along ray.d with weight beta_p; `sky`: the
+// directions after scattering there mix in the sky map's.
+Spectrum Path::direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
+                                const SegmentVertex *vertex, const SkyPoint *sky) {
+    return sample_direct(
+        scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
+        [&](const Vec3 &d) { return phase_eval(phase, dot(ray.d, d)); },
+        [&](const Vec3 &d) { return sky ? sky->pdf(ray.d, d) : phase_pdf(phase, dot(ray.d, d)); }, vertex);
+}
+
+// The segment lights of the homogeneous segment [ray.t_min, t_end] that free flight is
+// about to sample: NEE from the distances drawn for one of them (SegmentVertex).
+void Path::segment_direct(const Medium &m, const HomogeneousMedium &h, Real t_end) {
+    const int n = int(scene.segment_lights.size());
+    const int light = scene.segment_lights[std::min(int(sampler.next_1d() * n), n - 1)];
+    const Spectrum sigma_t = h.sigma_a + h.sigma_s;
+    if (!(t_end > ray.t_min)) return;
+    const LightDistances distances(scene.lights[light], ray, t_end, sigma_t);
+    for (int k = 0; k < distances.count; ++k) {
+        Real t;
+        // The second distance is drawn on some segments only: an independent number.
+        if (!distances.sample(k, k == 0 ? sampler.next_1d() : sampler.independent_1d(), channel, t)) continue;
+        const Spectrum density = distances.density(t);
+        if (!(density[channel] > 0)) continue;
+        const SegmentVertex vertex{ray, t_end, sigma_t, r_u, t, density[channel], light};
+        const Vec3 p = ray.at(t);
+        const Spectrum beta_p = beta * exp(-sigma_t * (t - ray.t_min)) * h.sigma_s / density[channel];
+        L += direct_in_medium(p, medium_phase(m, p), beta_p, r_u * density / density[channel], &vertex);
+    }
+}
+
+// A real scattering event at p in medium m, beta already weighted for reaching it:
+// NEE, then phase sampling of the next ray and Russian roulette. False: the path ends.
+bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex) {
+    ++depth;
+    const PhaseFunction phase = medium_phase(m, p);
+    const SkyMap *map = sky_map_of(m);
+    const bool models = map && map->models_light && feat.nee && scene.air_models_hold(p);
+    const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
+    if (feat.nee) {
+        if (!vertex || !scene.collision_nee_lights[feat.mis].empty())
+            L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
+        // Nothing left that the path could find?
+        if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
+    }
+    const Real u_lobe = sampler.next_1d();
+    PhaseSample ps;
+    if (!sky) {
+        ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
+    } else {
+        Real pdf_map;
+        ps.d_out = u_lobe < sky->share
+                       ? map->sample(sky->at, sampler.next_2d(), u_lobe / sky->share, pdf_map)
+                       : phase_sample(sky->lobes, ray.d, sampler.next_2d(),
+                                      (u_lobe - sky->share) / (1 - sky->share), channel).d_out;
+        ps.value = phase_eval(phase, dot(ray.d, ps.d_out));
+        ps.pdf = sky->pdf(ray.d, ps.d_out);
+    }
+    const Real pdf_c = ps.pdf[channel];
+    if (!(pdf_c > 0)) return false;
+    const bool sky_model = models && !last_vertex();
+    // The map's light scattered here as a control variate: its integral over directions,
+    // less its value in the direction drawn (the path then brings the light that truly
+    // arrives from there). Rayleigh's share integrates exactly (SkyMap::rayleigh_integral);
+    // Mie's by an unbiased estimate from the map alone: directions of its lobe (drawn
+    // like Henyey-Greenstein's, stratified, from one 2D sample), independent of d_out.
+    const Spectrum arriving = sky_model ? map->radiance(sky->at, ps.d_out) : Spectrum(0.0);
+    if (sky_model) {
+        const auto &air = std::get<RayleighMiePhase>(phase);
+        const Spectrum &rayleigh = air.rayleigh_fraction, mie = Spectrum(1.0) - rayleigh;
+        const Vec2 u = sampler.next_2d();
+        const Frame forward(ray.d);
+        Spectrum mie_integral(0.0);
+        for (int k = 0; k < kMieLobeSamples; ++k) {
+            const Real mu = hg_sample_mu(air.g, (k + u.x) / kMieLobeSamples), sin_theta = safe_sqrt(1 - mu * mu);
+            const Real phi = 2 * kPi * std::fmod(u.y + k * 0.6180339887498949, 1.0);
+            const Vec3 w = forward.to_world({sin_theta * std::cos(phi), sin_theta * std::sin(phi), mu});
+            mie_integral += map->radiance(sky->at, w) * (cornette_shanks_eval(air.g, mu) / hg_eval(air.g, mu));
+        }
+        const Real mu = dot(ray.d, ps.d_out);
+        const Spectrum integral = rayleigh * map->rayleigh_integral(sky->at, ray.d) +
+                                  mie * mie_integral / Real(kMieLobeSamples);
+        const Spectrum value = (rayleigh * rayleigh_eval(mu) + mie * cornette_shanks_eval(air.g, mu)) * arriving;
+        L += beta * (integral - value / pdf_c) / average(r_u);
+    }
+    // Lobe mixtures make the direction's pdf differ per channel.
+    beta *= ps.value / pdf_c;
+    r_l = r_u / pdf_c;
+    r_u *= ps.pdf / pdf_c;
+    if (vertex) {
+        scattered_at = *vertex;
+        r_ld = vertex->r_start / (vertex->pdf * pdf_c);
+    } else {
+        scattered_at.reset();
+    }
+    prev_p = p;
+    specular_bounce = false;
+    null_crossings = 0;
+    ray = Ray{p, ps.d_out, 0, kInfinity};
+    return sky_model ? roulette_after_sky_model(arriving) : roulette();
+}
+
+// Where the map models what the path brings back from its new direction, M, roulette uses
+// it as a control variate: M if the path ends here, M (1 - 1/q) and the path's light over q
+// if it goes on. Survival at least M / (L + M) per channel, so that neither takes the
+// sample's radiance so far below zero.
+bool Path::roulette_after_sky_model(const Spectrum &arriving) {
+    if (depth < kSkyRouletteDepth) return true;
+    const Spectrum M = beta * arriving / average(r_u);
+    Real q = kSkyRouletteSurvival;
+    for (int c = 0; c < 3; ++c)
+        if (M[c] > 0) q = std::max(q, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
+    if (!(sampler.next_1d() < q)) {
+        L += M;
+        return false;
+    }
+    L += M * (1 - 1 / q);
+    beta /= q;
+    return true;
+}
+
+// Russian roulette on the channel-averaged throughput.
+bool Path::roulette() {
+    if (depth < config.rr_depth) return true;
+    const Real q = std::min(max_component(beta / average(r_u)), kMaxSurvival);
+    if (!(sampler.next_1d() < q)) return false;
+    beta /= q;
+    return true;
+}
+
+// Through the guided air. Where the scene's own shapes may shadow the sun from the segment,
+// the air's light models do not hold: the segment is cut where that starts or ends, and
+// each piece is flown on its own (free flight is memoryless), the models serving as
+// control variates on the clear pieces alone.
+Step Path::fly_through_air(bool hit, const Intersection &its, Real t_end) {
+    Real t_piece = t_end;
+    bool clear = scene.sun_alone_under_mis;
+    if (clear && scene.local_bounds.valid()) {
+        const Real eps = 1e-9 * (1 + std::abs(ray.t_min) + std::abs(t_end));
+        const auto [a, b] = scene.local_sun_shadow(ray, ray.t_min, t_end);
+        if (a <= b && b > ray.t_min + eps) {
+            if (a > ray.t_min + eps) t_piece = a;  // clear up to the shadow
+            else clear = false, t_piece = b;       // shadowed up to its end
+        }
+    }
+    const bool cut = t_piece < t_end;
+    const Flight flight = guided_flight(scene.media[medium], hit && !cut, its, t_piece, clear);
+    if (flight == Flight::Ended) return Step::Ended;
+    if (flight == Flight::Scattered) return Step::NewRay;
+    if (cut) {
+        ray.t_min = t_piece;
+        return Step::NewRay;
+    }
+    return Step::Reached;
+}
+
+// Whether the ray leaves the air for empty space at `its` (where, under suns alone, only
+// a sun's disc could be found).
+bool Path::leaves_for_empty_space(bool hit, const Intersection &its) const {
+    if (!hit || scene.has_environment || !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) ||
+        medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) >= 0)
+        return false;
+    Intersection beyond;
+    return !scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond);
+}
+
+// The guided free flight through the air (AirSegment): pass through or collide with a
+// probability shared by all channels (the camera's first segment does both, see
+// radiance()); collisions are drawn along the segment toward where the sun's light
+// scatters, weighted with the table's transmittance. `hit`: the segment ends at the
+// surface `its` (else at a cut, or nowhere); `clear`: the air's light models hold along it.
+Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &its, Real t_end, bool clear) {
+    // The light scattered along the segment as a control variate (AirSegment::light_model):
+    // the model's integral is added, and at a collision the model's value there is taken
+    // off what the path then gathers (NEE, and past it the light the sky map models).
+    const bool light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
+    const SkyMap *map = sky_map_of(m);
+    const bool map_model = light_model && map && map->models_light &&
+                           (feat.max_depth < 0 || depth + 2 < feat.max_depth);
+    // The camera's pass-through branch only looks for what lies beyond: if that is empty
+    // space and no sun's disc, nothing (sky pixels, most of a sky's image).
+    if (branch == Branch::PassThrough && leaves_for_empty_space(hit, its)) {
+        bool sees_a_sun = false;
+        for (int index : scene.infinite_lights)
+            sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
+        if (!sees_a_sun) return Flight::Ended;
+    }
+    // The camera's pass-through branch needs only T: no sun lookups for the guide.
+    const AirSegment seg = air_segment(*guided_air(m), ray, t_end,
+                                       branch == Branch::PassThrough ? nullptr : scene.sun_guide(),
+                                       map_model ? map : nullptr);
+    const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
+    Real p_collide = branch == Branch::Collide ? 1 : 0;
+    if (branch == Branch::All) {
+        for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;  // 1 - T by expm1: exact for thin air too
+        // Leaving the air for empty space under suns alone, a path could only find a
+        // sun's disc, which NEE from the last scattering event takes (see sample_direct):
+        // always collide. Not after the camera or a specular bounce: no NEE saw the disc.
+        if (p_collide > 0 && !specular_bounce && leaves_for_empty_space(hit, its)) p_collide = 1;
+    }
+    const bool controlled = light_model && p_collide > 0 && seg.models_light;
+    if (controlled) L += beta * seg.light_integral() / average(r_u);
+    bool collide = branch == Branch::Collide;
+    Real p_event = 1;
+    if (branch == Branch::All) {
+        collide = sampler.next_1d() < p_collide;
+        p_event = collide ? p_collide : average(T);
+    }
+    branch = Branch::All;
+    if (collide) {
+        Real t, pdf;
+        if (last_vertex() || !seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
+        const Vec3 p = ray.at(t);
+        if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));
+        beta *= seg.transmittance(t) * medium_properties(m, p).sigma_s / (pdf * p_event);
+        return !is_black(beta) && scatter_in_medium(p, m) ? Flight::Scattered : Flight::Ended;
+    }
+    if (!(p_event > 0)) return Flight::Ended;
+    beta *= T / p_event;
+    scale_r_l(Spectrum(1 / p_event));  // the light strategy needs no flight through: see sample_direct
+    return Flight::Crossed;
+}
+
+// Through any other medium: delta tracking against its majorants (null scattering),
+// transmittance in closed form where a homogeneous medium does not scatter.
+Step Path::fly_through_medium(Real t_end) {
+    const Medium &m = scene.media[medium];
+    const auto *h = std::get_if<HomogeneousMedium>(&m);
+    const bool scatters = feat.scatter && !(h && is_black(h->sigma_s));
+    // The camera's first segment, when split (radiance() splits only scattering
+    // media): PassThrough crosses it with weight T_maj, Collide must collide in it.
+    Real forced = 0;
+    const bool pass_through = branch == Branch::PassThrough;
+    const bool segment_nee = h && scatters && !pass_through && feat.nee && config.light_distances &&
+                             !scene.segment_lights.empty() && !last_vertex();
+    if (segment_nee) segment_direct(m, *h, t_end);
+    const Spectrum r_start = r_u;
+    if (branch != Branch::All) {
+        const Spectrum tau = majorant_optical_depth(m, ray, t_end);
+        if (pass_through) {
+            const Spectrum T_maj = exp(-tau);
+            const Real pdf = T_maj[channel];
+            if (!(pdf > 0)) return Step::Ended;
+            beta *= T_maj;  // the branch always runs: weighted by the event's probability
+            r_u *= T_maj / pdf;
+            scale_r_l(h ? Spectrum(1 / pdf) : T_maj / pdf);
+        } else {
+            forced = -std::expm1(-tau[channel]);
+            if (!(forced > 0)) return Step::Ended;
+            beta *= forced;
+        }
+        branch = Branch::All;
+    }
+    if (!scatters && h) {
+        // Nothing scatters: transmittance and emission are exact, no sampling:
+        // the emission integral of sigma_a Le T(t) over the segment.
+        const Spectrum sigma_t = h->sigma_a + h->sigma_s;
+        const Real d = t_end - ray.t_min;
+        if (!is_black(h->Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
+            Spectrum span;
+            for (int c = 0; c < 3; ++c)
+                span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
+            L += beta * h->sigma_a * h->Le * span / average(r_u);
+        }
+        beta *= exp(-sigma_t * d);
+    } else if (!scatters) {
+        // Absorption tracer in a heterogeneous medium: ratio tracking, collecting
+        // the emission at every tentative collision.
+        const Spectrum T_maj = sample_T_maj(
+            m, ray, t_end, channel, sampler,
+            [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+                add_medium_emission(mp, sigma_maj, T_seg);
+                const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
+                const Real pdf = T_seg[channel] * sigma_maj[channel];
+                beta *= T_seg * sigma_n / pdf;
+                r_u *= T_seg * sigma_maj / pdf;
+                return !is_black(beta);
+            });
+        const Real pdf = T_maj[channel];
+        if (!(pdf > 0) || is_black(beta)) return Step::Ended;
+        beta *= T_maj / pdf;
+        r_u *= T_maj / pdf;
+    } else if (!pass_through) {
+        bool scattered = false, terminated = false;
+        ChoiceChain real_or_null;
+        const Spectrum T_maj = sample_T_maj(
+            m, ray, t_end, channel, sampler,
+            [&](const Vec3 &p, Real t, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+                const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
+                add_medium_emission(mp, sigma_maj, T_seg);
+                // Real or null collision, in proportion to sigma_t : sigma_n in the
+                // sampling channel. Absorption is not sampled: it weights beta. All the
+                // segment's choices come from one uniform (ChoiceChain): the segment is
+                // crossed where that exceeds 1 - (the tentative collisions' ratio-tracking
+                // estimate of T), a threshold stratified over the pixel's samples like any
+                // dimension. Measured on the heterogeneous cube (d): 7 % lower error at
+                // equal time than a number per choice.
+                if (real_or_null.choose(sigma_t[channel] / sigma_maj[channel], sampler)) {
+                    if (last_vertex()) {
+                        terminated = true;
+                        return false;
+                    }
+                    const Real pdf = T_seg[channel] * sigma_t[channel];
+                    beta *= T_seg * mp.sigma_s / pdf;
+                    r_u *= T_seg * sigma_t / pdf;
+                    // In a homogeneous segment T_seg runs from its start.
+                    std::optional<SegmentVertex> vertex;
+                    if (segment_nee) vertex = SegmentVertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
+                    if (is_black(beta) || !scatter_in_medium(p, m, vertex ? &*vertex : nullptr)) {
+                        terminated = true;
+                        return false;
+                    }
+                    scattered = true;
+                    return false;
+                }
+                if (++null_collisions > config.max_null_collisions) {
+                    terminated = true;
+                    return false;
+                }
+                const Spectrum sigma_n = clamp_zero(sigma_maj - sigma_t);
+                const Real pdf = T_seg[channel] * sigma_n[channel];
+                if (!(pdf > 0)) {
+                    terminated = true;
+                    return false;
+                }
+                beta *= T_seg * sigma_n / pdf;
+                r_u *= T_seg * sigma_n / pdf;
+                scale_r_l(T_seg * sigma_maj / pdf);
+                return !is_black(beta);
+            },
+            forced);
+        if (terminated) return Step::Ended;
+        if (scattered) return Step::NewRay;
+        // No collision before t_end. Homogeneous media are crossed by shadow rays in
+        // closed form, so the light strategy's density does not include T there.
+        const Real pdf = T_maj[channel];
+        if (!(pdf > 0)) return Step::Ended;
+        beta *= T_maj / pdf;
+        r_u *= T_maj / pdf;
+        scale_r_l(is_homogeneous(m) ? Spectrum(1 / pdf) : T_maj / pdf);
+    }
+    return Step::Reached;
+}
+
+// The ray escaped: the lights at infinity it finds.
+void Path::add_infinite_lights(const Intersection &its) {
+    for (int index : scene.infinite_lights) {
+        const Light &light = scene.lights[index];
+        add_emission(infinite_radiance(light, ray.d), index, light_pdf(light, scene.geometry, prev_p, ray.d, its));
+    }
+}
+
+// At a surface: its emission, then a null boundary crossed, or the BSDF's NEE and its
+// sampled direction with Russian roulette.
+Step Path::at_surface(const Intersection &its) {
+    const ShapeInfo &shape = scene.shapes[its.shape];
+    if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
+        const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
+        add_emission(area.radiance, shape.light, light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
+    }
+    const BSDF &bsdf = scene.bsdfs[shape.bsdf];
+    if (is_null(bsdf)) {
+        if (++null_crossings > kMaxNullCrossings) return Step::Ended;
+        medium = medium_after_crossing(shape, ray.d, its.n, medium);
+        const Real t_left = ray.t_max - its.t;
+        ray = spawn_ray(its.p, its.n, ray.d, t_left);
+        return Step::NewRay;
+    }
+    if (!feat.scatter) return Step::Ended;
+    if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) return Step::Ended;
+    ++depth;
+
+    const Frame frame(its.ns);
+    const Vec3 wi = frame.to_local(-ray.d);
+    if (feat.nee && !is_delta(bsdf)) {
+        L += sample_direct(
+            scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler,
+            [&](const Vec3 &d) { return bsdf_eval(bsdf, wi, frame.to_local(d)); },
+            [&](const Vec3 &d) { return Spectrum(bsdf_pdf(bsdf, wi, frame.to_local(d))); });
+        if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return Step::Ended;
+    }
+    BSDFSample bs;
+    if (!bsdf_sample(bsdf, wi, sampler.next_1d(), sampler.next_2d(), bs)) return Step::Ended;
+    const Vec3 wo = frame.to_world(bs.wo);
+    beta *= bs.weight;
+    specular_bounce = bs.delta;
+    if (!bs.delta) r_l = r_u / bs.pdf;
+    scattered_at.reset();
+    prev_p = its.p;
+    null_crossings = 0;
+    medium = medium_after_crossing(shape, wo, its.n, medium);
+    ray = spawn_ray(its.p, its.n, wo);
+    if (is_black(beta)) return Step::Ended;
+    return roulette() ? Step::NewRay : Step::Ended;
+}
+
+// `gathered`: see Path; `first`: where `ray` meets the scene, if known.
+Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config,
+                       Branch branch, const Spectrum &gathered = Spectrum(0.0), const FirstHit *first = nullptr) {
+    return Path(scene, ray, medium, sampler, config, branch, gathered).trace(first);
 }
 
 }  // namespace
