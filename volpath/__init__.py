@@ -9,7 +9,8 @@
 from .errors import RenderCancelled, SceneError
 from .exr import read_exr, write_exr
 from .render import render
-from .scene import TRACERS, Scene, load_dict, load_file, load_string
+from .plugins.integrators import TRACERS
+from .scene import Scene, load_dict, load_file, load_string
 from .volume import VolumeGrid
 
 __version__ = "0.1.0"

@@ -11,7 +11,8 @@ from .adaptive import describe
 from .errors import SceneError
 from .exr import write_exr
 from .render import render
-from .scene import TRACERS, load_file
+from .plugins.integrators import TRACERS
+from .scene import load_file
 
 
 def _params(defines, parser):

@@ -10,7 +10,7 @@ from .adaptive import render_adaptive
 from .auto import choose_tracer
 from .denoise import denoise as oidn
 from .errors import RenderCancelled
-from .scene import TRACERS
+from .plugins.integrators import TRACERS
 from .spectral import Film
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from . import vdb
 from .grids import write_vol
 from .meshes import write_ply
-from .scene import _kind
+from .plugins import kind_of
 from .volume import VolumeGrid
 
 
@@ -123,7 +123,7 @@ class _Writer:
 
     def obj(self, key, d, depth, top):
         pad = "    " * depth
-        kind = _kind(d)
+        kind = kind_of(d)
         if kind is None:
             raise TypeError(f"'{key}': unknown plugin type {d.get('type')!r}")
         d = dict(d)

@@ -56,7 +56,7 @@ def _sky(node, scene, strength, report, has_sun_lamp):
     air = {"type": "atmosphere", "preset": settings.atmosphere_preset, "mode": settings.atmosphere_mode,
            "unit": float(unit), "free_flight": settings.atmosphere_free_flight,
            "majorant_pieces": int(settings.atmosphere_pieces)}
-    from volpath.scene import ATMOSPHERE_PRESETS
+    from volpath.plugins.media import ATMOSPHERE_PRESETS
 
     preset = ATMOSPHERE_PRESETS[settings.atmosphere_preset]
     radius = preset["planet_radius"]

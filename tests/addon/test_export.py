@@ -183,7 +183,7 @@ def test_sky_texture_becomes_the_atmosphere(blank):
     bpy.ops.object.light_add(type="SUN", rotation=(math.radians(30), 0, 0))  # 60 degrees up
     d = export_scene(depsgraph()).scene
     air = d["air"]
-    from volpath.scene import ATMOSPHERE_PRESETS
+    from volpath.plugins.media import ATMOSPHERE_PRESETS
 
     preset = ATMOSPHERE_PRESETS["bruneton"]
     assert air["type"] == "atmosphere"

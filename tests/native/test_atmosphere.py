@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import volpath
 from volpath import _core
-from volpath.scene import ATMOSPHERE_PRESETS, rayleigh_coefficient
+from volpath.plugins.media import ATMOSPHERE_PRESETS, rayleigh_coefficient
 from volpath.render import TRACERS
 from volpath.spectral import pass_wavelengths, white
 from volpath.testing import MIN_BATCHES, chi2_directions, max_z, render_batches

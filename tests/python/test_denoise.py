@@ -9,7 +9,7 @@ import pytest
 import volpath
 from volpath import _core
 from volpath.adaptive import SLACK
-from volpath.scene import TRACERS
+from volpath.plugins.integrators import TRACERS
 from volpath.tonemap import auto_exposure, display
 
 import scenes as S

@@ -84,8 +84,8 @@ def test_boxes_hit_like_their_twelve_triangles(seed, log_scale, offset, aligned,
         return  # nearly flat: such cubes stay meshes
     m = np.eye(4)
     m[:3, :3], m[:3, 3] = lin, offset * rng.normal(size=3)
-    from volpath.scene import _cube
-    corners, triangles = _cube()
+    from volpath.plugins.shapes import cube
+    corners, triangles = cube()
     positions = corners @ lin.T + m[:3, 3]
     if flip:
         triangles = triangles[:, ::-1]

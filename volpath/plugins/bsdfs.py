@@ -1,0 +1,91 @@
+"""BSDF plugins: null, diffuse, dielectric, rough plastic, principled, twosided."""
+
+import numpy as np
+
+from ..errors import SceneError, where
+from . import kind_of
+
+# Named indices of refraction (Mitsuba's table, the common entries).
+IOR = {"vacuum": 1.0, "air": 1.000277, "water": 1.3330, "water ice": 1.31, "fused quartz": 1.458,
+       "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
+       "sodium chloride": 1.544, "amber": 1.55, "pet": 1.575, "diamond": 2.419}
+
+
+def build(b, d, twosided=False):
+    d = b.resolve(d)
+    key = (id(d), twosided)
+    if key in b.bsdfs:
+        return b.bsdfs[key]
+    if id(d) in b.building:
+        raise SceneError(f"{where(d.get('__loc__'))}cyclic bsdf definition")
+    b.building.add(id(d))
+    p = b.params(d, "bsdf")
+    n = b.native
+    if p.type == "twosided":
+        inner = [k for k, v in d.items() if isinstance(v, dict) and kind_of(b.resolve(v)) == "bsdf"]
+        if len(inner) != 1:
+            raise p.error("expected exactly one nested bsdf")
+        p.read.add(inner[0])
+        index = build(b, d[inner[0]], twosided=True)
+    elif p.type == "null":
+        index = n.add_bsdf_null()
+    elif p.type == "diffuse":
+        index = n.add_bsdf_diffuse(reflectance(p, "reflectance", 0.5), twosided)
+    elif p.type in ("dielectric", "thindielectric"):
+        if p.type == "thindielectric":
+            raise p.error("thin dielectrics are not supported (use 'dielectric')")
+        eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
+        p.raw("specular_reflectance"), p.raw("specular_transmittance")
+        index = n.add_bsdf_dielectric(eta)
+    elif p.type in ("roughplastic", "plastic"):
+        dist = p.str("distribution", "ggx", ("ggx", "beckmann"))
+        if dist != "ggx":
+            raise p.error("only the 'ggx' distribution is supported")
+        alpha = p.float("alpha", 0.1 if p.type == "roughplastic" else 0.001, minimum=0.0)
+        eta = ior(p, "int_ior", 1.49) / ior(p, "ext_ior", 1.000277)
+        p.raw("nonlinear"), p.raw("sample_visible")
+        index = n.add_bsdf_roughplastic(reflectance(p, "diffuse_reflectance", 0.5),
+                                        reflectance(p, "specular_reflectance", 1.0),
+                                        max(alpha, 1e-3), eta, twosided)
+    elif p.type == "principled":
+        # Mapped onto the rough plastic: base colour under a GGX coat; metals tint the coat.
+        base = reflectance(p, "base_color", 0.5)
+        metallic = p.float("metallic", 0.0, minimum=0.0)
+        roughness = p.float("roughness", 0.5, minimum=0.0)
+        eta = p.float("eta", 1.5, positive=True)
+        for ignored in ("specular", "spec_tint", "anisotropic", "sheen", "sheen_tint", "clearcoat",
+                        "clearcoat_gloss", "spec_trans", "flatness"):
+            p.raw(ignored)
+        specular = (1 - metallic) * np.ones(3) + metallic * base
+        index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness ** 2, 1e-3),
+                                        eta, twosided)
+    else:
+        raise p.error("unknown bsdf (expected one of: null, diffuse, dielectric, roughplastic, "
+                      "principled, twosided)")
+    p.check()
+    b.building.discard(id(d))
+    b.bsdfs[key] = index
+    return index
+
+
+def reflectance(p, name, default):
+    v = p.raw(name, default)
+    if isinstance(v, dict) and kind_of(v) == "texture":
+        raise p.error(f"textures are not supported for '{name}' (give an rgb)")
+    return p.rgb(name, default)
+
+
+def ior(p, name, default):
+    v = p.raw(name, default)
+    if isinstance(v, str):
+        if v.lower() not in IOR:
+            raise p.error(f"unknown material '{v}' for '{name}' (expected a number or one of: {', '.join(IOR)})")
+        return IOR[v.lower()]
+    return p.float(name, default, positive=True)
+
+
+def default(b):
+    key = ("default", False)
+    if key not in b.bsdfs:
+        b.bsdfs[key] = b.native.add_bsdf_diffuse((0.5, 0.5, 0.5), False)
+    return b.bsdfs[key]

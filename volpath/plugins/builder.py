@@ -1,0 +1,168 @@
+"""The builder the plugin kinds share (see __init__.py)."""
+
+import os
+
+import numpy as np
+
+from .. import _core
+from ..errors import SceneError, where
+from . import bsdfs, emitters, integrators, kind_of, media, sensors, shapes
+from .params import Params
+
+
+class Builder:
+    """Builds one native scene from a scene dictionary: the state the plugin kinds share
+    and the order in which they are built."""
+
+    def __init__(self, d, base_dir, source, wavelengths=None):
+        self.d, self.base_dir, self.source = d, base_dir, source
+        self.wavelengths = wavelengths
+        self.spectral_passes = 0  # set by an atmosphere in mode="spectral"
+        self.old = bool(d.get("__old__", False))
+        self.native = _core.Scene()
+        self.ids = {}
+        self._index_ids(d)
+        self.media = {}   # id(dict) -> native index
+        self.bsdfs = {}
+        self.building = set()
+        self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
+        self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
+        self.medium_bounds = {}  # native medium index -> list of bounding boxes
+        self.atmospheres = []    # (native medium index, centre, top radius)
+        self.loc = d.get("__loc__")
+
+    def params(self, d, kind):
+        """A plugin's parameters; remembers where it is for errors found later."""
+        p = Params(d, kind, self.wavelengths)
+        self.loc = p.loc
+        return p
+
+    def _index_ids(self, d):
+        for k, v in d.items():
+            if isinstance(v, dict) and v.get("type") != "ref":
+                if "__id__" in v:
+                    if v["__id__"] in self.ids:
+                        raise SceneError(f"{where(v.get('__loc__'))}id '{v['__id__']}' is used twice")
+                    self.ids[v["__id__"]] = v
+                self._index_ids(v)
+        # Top-level keys of a dictionary scene act as ids too (Mitsuba's load_dict).
+        if d is self.d:
+            for k, v in d.items():
+                if isinstance(v, dict) and not k.startswith("__") and v.get("type") != "ref":
+                    self.ids.setdefault(k, v)
+
+    def resolve(self, v):
+        seen = 0
+        while isinstance(v, dict) and v.get("type") == "ref":
+            if v["id"] not in self.ids:
+                raise SceneError(f"{where(v.get('__loc__'))}reference to unknown id '{v['id']}'")
+            v = self.ids[v["id"]]
+            seen += 1
+            if seen > 64:
+                raise SceneError(f"{where(v.get('__loc__'))}cyclic reference")
+        return v
+
+    def path(self, p, name):
+        filename = p.str(name)
+        full = filename if os.path.isabs(filename) else os.path.join(self.base_dir, filename)
+        if not os.path.exists(full):
+            raise p.error(f"file '{filename}' not found (looked in {self.base_dir})")
+        return full
+
+    # -- top level -----------------------------------------------------------------------
+    def build(self):
+        """Builds the native scene; returns the render settings (the integrator's, and
+        the sensor's spp)."""
+        return self._checked(self._build)
+
+    def update(self, d):
+        """Scene.update: the new sample count, or None where ``d`` changes more than the
+        sensor and the suns and directional lights."""
+        if set(d) != set(self.d):
+            return None
+        changed = [k for k in d if d[k] is not self.d[k]]
+        for k in changed:
+            kind = kind_of(d[k]) if isinstance(d[k], dict) else None
+            if not (kind == "sensor" or (kind == "emitter" and k in self.lights and
+                                         d[k].get("type") == self.d[k].get("type"))):
+                return None
+
+        def update():
+            self.d, self.ids = d, {}
+            self._index_ids(d)
+            for k in changed:
+                if kind_of(d[k]) == "sensor":
+                    self.spp = sensors.build(self, d[k])
+                else:
+                    emitters.build(self, d[k], k)
+            self.native.build()
+            return self.spp
+
+        return self._checked(update)
+
+    def _checked(self, step):
+        try:
+            return step()
+        except SceneError:
+            raise
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError, RuntimeError) as e:
+            # The native builder's checks, and whatever a malformed value slipped past.
+            raise SceneError(f"{where(self.loc)}invalid scene description ({e})") from None
+
+    def _build(self):
+        scene = self.params(self.d, "scene")
+        integrator, sensor = None, None
+        items = [(k, v) for k, v in self.d.items() if not k.startswith("__") and k != "type"]
+        for key, v in items:
+            scene.read.add(key)
+            if not isinstance(v, dict):
+                raise SceneError(f"{where(self.d.get('__loc__'))}scene: unexpected value '{key}'")
+            kind = kind_of(v)
+            if kind == "integrator":
+                integrator = v
+            elif kind == "sensor":
+                if sensor is not None:
+                    raise SceneError(f"{where(v.get('__loc__'))}only one sensor is supported")
+                sensor = v
+        # Declared media first: an atmosphere brings its own geometry, and a camera inside
+        # it is inside it without saying so.
+        for key, v in items:
+            if kind_of(v) == "medium":
+                media.build(self, v)
+        for key, v in items:
+            kind = kind_of(v)
+            if kind == "shape":
+                shapes.build(self, v)
+            elif kind == "emitter":
+                emitters.build(self, v, key)
+            elif kind in ("bsdf", "medium", "texture", "integrator", "sensor", "phase", "volume"):
+                pass  # built where referenced
+            else:
+                raise SceneError(f"{where(v.get('__loc__'))}unknown plugin type '{v.get('type')}'")
+        settings = integrators.build(self, integrator)
+        settings["spp"] = self.spp = sensors.build(self, sensor)
+        # Declared BSDFs that nothing references are still checked.
+        for key, v in items:
+            if kind_of(v) == "bsdf":
+                self.bsdf(v)
+        scene.check()
+        self.native.build()
+        self.summarise_media()
+        return settings
+
+    # The plugin kinds that others refer to.
+    def bsdf(self, d, twosided=False):
+        return bsdfs.build(self, d, twosided)
+
+    def medium(self, d):
+        return media.build(self, d)
+
+    def summarise_media(self):
+        for m in self.summary["media"]:
+            boxes = self.medium_bounds.get(m["index"])
+            if boxes:
+                lo = np.min([b[0] for b in boxes], axis=0)
+                hi = np.max([b[1] for b in boxes], axis=0)
+                m["extent"] = float(np.linalg.norm(hi - lo))
+                sig = m.get("sigma_t") or m.get("sigma_t_range")
+                m["optical_thickness"] = [float(min(sig)) * m["extent"], float(max(sig)) * m["extent"]]

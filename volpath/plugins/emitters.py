@@ -1,0 +1,84 @@
+"""Emitter plugins: point, directional, sun, constant and envmap (area emitters belong to
+their shapes)."""
+
+import math
+
+import numpy as np
+
+from .params import spectral_colour
+
+
+def build(b, d, key=None):
+    """Adds the emitter, or replaces the sun or directional light that was built
+    under the same top-level ``key`` (Scene.update)."""
+    p = b.params(d, "emitter")
+    n = b.native
+    info = {"type": p.type, "loc": p.loc}
+    replace, position = b.lights.get(key, (-1, len(b.summary["emitters"])))
+    index = None
+    if p.type == "point":
+        if p.has("position"):
+            pos = p.vec3("position")
+        else:
+            pos = p.transform()[:3, 3]
+        intensity = p.rgb("intensity", 1.0, emitted=True)
+        n.add_point_light(tuple(pos), tuple(intensity))
+        info.update(position=pos.tolist(), intensity=intensity.tolist())
+    elif p.type == "directional":
+        if p.has("direction"):
+            direction = p.vec3("direction")
+        else:
+            direction = p.transform()[:3, :3] @ np.array([0.0, 0.0, 1.0])
+        if np.linalg.norm(direction) == 0:
+            raise p.error("'direction' must not be zero")
+        irradiance = p.rgb("irradiance", 1.0, emitted=True)
+        index = n.add_directional_light(tuple(direction), tuple(irradiance), replace)
+        info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
+    elif p.type == "constant":
+        radiance = p.rgb("radiance", 1.0, emitted=True)
+        n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4))
+        info.update(radiance=radiance.tolist())
+    elif p.type == "envmap":
+        from ..exr import read_exr
+
+        path = b.path(p, "filename")
+        if not path.lower().endswith(".exr"):
+            raise p.error("environment maps must be OpenEXR files")
+        try:
+            image = read_exr(path)
+        except ValueError as e:
+            raise p.error(str(e)) from None
+        if not np.all(np.isfinite(image)) or image.min() < 0:
+            raise p.error(f"{path}: the environment map has negative or non-finite pixels")
+        scale = p.float("scale", 1.0, minimum=0.0)
+        to_world = p.transform()
+        if b.wavelengths is not None:
+            image = spectral_colour(image, b.wavelengths, emitted=True).astype(np.float32)
+        n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world))
+        info.update(filename=path, resolution=list(image.shape[1::-1]))
+    elif p.type == "sun":
+        if p.has("direction"):
+            direction = p.vec3("direction")
+            if np.linalg.norm(direction) == 0:
+                raise p.error("'direction' must not be zero")
+            to_sun = -direction / np.linalg.norm(direction)
+        else:
+            # Y is up; azimuth turns from -z towards +x.
+            e = math.radians(p.float("elevation", 30.0))
+            a = math.radians(p.float("azimuth", 0.0))
+            to_sun = np.array([math.cos(e) * math.sin(a), math.sin(e), -math.cos(e) * math.cos(a)])
+        radius = p.float("angular_radius", 0.004675, positive=True)
+        if radius >= 0.5:
+            raise p.error("'angular_radius' must be below 0.5 rad")
+        irradiance = p.rgb("irradiance", 1.0, emitted=True)
+        index = n.add_sun(tuple(to_sun), radius, tuple(irradiance), replace)
+        info.update(to_sun=to_sun.tolist(), angular_radius=radius, irradiance=irradiance.tolist())
+    elif p.type == "area":
+        raise p.error("an area emitter must be nested inside a shape")
+    else:
+        raise p.error("unknown emitter (expected one of: point, directional, sun, constant, envmap, area)")
+    p.raw("sampling_weight")
+    p.check()
+    b.summary["emitters"][position:position + 1] = [info]
+    if key is not None and index is not None:
+        b.lights[key] = (index, position)

@@ -1,0 +1,145 @@
+"""Shape plugins: spheres, analytic boxes (cube), and meshes (rectangle, cube, OBJ, PLY,
+numpy arrays in a dictionary), with their BSDF, area emitter and medium interface."""
+
+import numpy as np
+
+from ..meshes import load_mesh
+from . import bsdfs, kind_of
+
+
+def build(b, d):
+    p = b.params(d, "shape")
+    to_world = p.transform()
+    bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
+    for key, v in d.items():
+        if not isinstance(v, dict) or key == "to_world":
+            continue
+        r = b.resolve(v)
+        kind = kind_of(r)
+        if kind == "bsdf":
+            if bsdf_index is not None:
+                raise p.error("more than one bsdf")
+            bsdf_index = b.bsdf(r)
+            bsdf_type = r.get("type")
+        elif kind == "emitter":
+            ep = b.params(r, "emitter")
+            if ep.type != "area":
+                raise ep.error("only 'area' emitters can be attached to shapes")
+            radiance = ep.rgb("radiance", 1.0, emitted=True)
+            ep.check()
+        elif kind == "medium":
+            if key not in ("interior", "exterior"):
+                raise p.error(f"medium '{key}' must be named 'interior' or 'exterior'")
+            if key == "interior":
+                interior = b.medium(r)
+            else:
+                exterior = b.medium(r)
+        else:
+            continue
+        p.read.add(key)
+    if bsdf_index is None:
+        bsdf_index = bsdfs.default(b)
+    medium_interface = p.has("interior") or p.has("exterior")
+    common = dict(bsdf=bsdf_index, interior=interior, exterior=exterior, medium_interface=medium_interface,
+                  radiance=None if radiance is None else tuple(radiance))
+    flip = p.bool("flip_normals", False)
+    if p.type == "sphere":
+        center = transform_points(to_world, p.vec3("center", [0, 0, 0])[None])[0]
+        radius = p.float("radius", 1.0, positive=True)
+        lin = to_world[:3, :3]
+        scales = np.linalg.norm(lin, axis=0)
+        if not np.allclose(scales, scales[0], rtol=1e-6) or not np.allclose(lin.T @ lin, np.diag(scales ** 2), atol=1e-9 * scales.max() ** 2):
+            raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
+        radius *= scales[0]
+        b.native.add_sphere(tuple(center), radius, flip, **common)
+        bounds = np.array([center - radius, center + radius])
+        b.summary["shapes"].append({"type": "sphere", "center": center.tolist(), "radius": radius,
+                                       "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
+    elif p.type == "cube" and radiance is None and np.linalg.cond(to_world[:3, :3]) < 1e12:
+        # An analytic box (one primitive); emitting or flattened cubes stay meshes.
+        # Under a mirroring map the mesh's faces turn inward; the box's do too.
+        box_info = {k: v for k, v in common.items() if k != "radiance"}
+        mirrored = np.linalg.det(to_world[:3, :3]) < 0
+        b.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
+        corners = transform_points(to_world, cube()[0])
+        bounds = np.array([corners.min(axis=0), corners.max(axis=0)])
+        b.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type,
+                                       "loc": p.loc})
+    else:
+        normals = None
+        if p.type == "rectangle":
+            positions, triangles = rectangle()
+        elif p.type == "cube":
+            positions, triangles = cube()
+        elif p.type in ("obj", "ply"):
+            path = b.path(p, "filename")
+            positions, triangles, normals = load_mesh(path)
+            if p.bool("face_normals", False):
+                normals = None
+        elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
+            positions, triangles, normals = mesh_arrays(p)
+        else:
+            raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh)")
+        positions = transform_points(to_world, positions)
+        if normals is not None:
+            normals = transform_normals(to_world, normals)
+        if flip:
+            triangles = triangles[:, ::-1].copy()
+            if normals is not None:
+                normals = -normals
+        b.native.add_mesh(positions, triangles, normals, **common)
+        bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
+        b.summary["shapes"].append({"type": p.type, "triangles": int(len(triangles)),
+                                       "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
+    if interior >= 0:
+        b.medium_bounds.setdefault(interior, []).append(bounds)
+    if radiance is not None:
+        b.summary["emitters"].append({"type": "area", "radiance": radiance.tolist(), "loc": p.loc})
+    p.check()
+
+
+def mesh_arrays(p):
+    positions = np.asarray(p.raw("positions"), dtype=np.float64)
+    triangles = np.asarray(p.raw("indices"), dtype=np.int64)
+    normals = p.raw("normals")
+    if positions.ndim != 2 or positions.shape[1] != 3 or not np.all(np.isfinite(positions)):
+        raise p.error("'positions' must be a finite (n, 3) array")
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or (triangles.size and (
+            triangles.min() < 0 or triangles.max() >= len(positions))):
+        raise p.error("'indices' must be an (m, 3) array of vertex indices")
+    if normals is not None:
+        normals = np.asarray(normals, dtype=np.float64)
+        if normals.shape != positions.shape or not np.all(np.isfinite(normals)):
+            raise p.error("'normals' must be a finite array shaped like 'positions'")
+    return positions, triangles.astype(np.uint32), normals
+
+
+def transform_points(m, p):
+    return p @ m[:3, :3].T + m[:3, 3]
+
+
+def transform_normals(m, n):
+    out = n @ np.linalg.inv(m[:3, :3])  # (M^-T n) for row vectors
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    return out / np.where(norm > 0, norm, 1)
+
+
+def rectangle():
+    p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=np.float64)
+    return p, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
+
+
+def cube():
+    positions, triangles = [], []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            u, v = [(axis + 1) % 3, (axis + 2) % 3]
+            base = len(positions)
+            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                p = [0.0, 0.0, 0.0]
+                p[axis], p[u], p[v] = sign, a, b
+                positions.append(p)
+            # counter-clockwise seen from outside
+            triangles += [[base, base + 1, base + 2], [base, base + 2, base + 3]] if sign > 0 else \
+                [[base, base + 2, base + 1], [base, base + 3, base + 2]]
+    return np.array(positions), np.array(triangles, dtype=np.uint32)
