@@ -252,10 +252,23 @@ def main():
     text = markdown(results, args, variants)
     print(text)
     if args.out:
+        kept = kept_section(args.out)
         with open(args.out, "w") as f:
             f.write("# Benchmark results\n\nProduced by `make bench` (bench/compare_mitsuba.py); "
                     "each section's numbers come from one run, not always the same one: this table names its\n"
-                    "machine and date, and later sections theirs where they were measured apart.\n\n" + text)
+                    "machine and date, and later sections theirs where they were measured apart.\n\n" + kept + text)
+
+
+def kept_section(path):
+    """The measurements behind the core's constants (between the constants markers), which
+    no benchmark remakes: a new RESULTS.md keeps them."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            old = f.read()
+    except FileNotFoundError:
+        return ""
+    start, end = old.find("<!-- constants"), old.find("<!-- /constants -->")
+    return old[start:end + len("<!-- /constants -->")] + "\n\n" if 0 <= start < end else ""
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Cycles 5.0 (the bpy module) rendering the bench scenes' equivalents, for
 compare_mitsuba.py. The scenes are rebuilt in Blender in the bench files' own (Y-up)
-coordinates with the conversions of shared/README.md §5: an Emission strength is the
+coordinates with Blender's radiometry as Cycles renders it: an Emission strength is the
 radiance, an area light of power P and area A has radiance P / (pi A), a point light of
 power P has intensity P / (4 pi), a Sun's strength is its irradiance; Principled Volume
 density x colour = sigma_s, density x (1 - colour) = sigma_a (absorption colour black);

@@ -1,4 +1,4 @@
-"""Blender lights to emitters, in Blender's radiometry (shared/README.md §5): a point light
+"""Blender lights to emitters, in Blender's radiometry (as Cycles renders it): a point light
 of power P has intensity P/(4 pi) W/sr, a sun's strength is its irradiance in W/m², an
 area light of power P and area A has radiance P/(pi A)."""
 

@@ -1,6 +1,6 @@
 """Shader node trees to BSDFs, area emitters and media.
 
-What maps (shared/README.md §5 gives Blender's radiometry):
+What maps (in Blender's radiometry, as Cycles renders it; lights.py gives the lights'):
   Principled BSDF   -> principled (base colour, metallic, roughness; IOR and Specular IOR
                        Level give the coat's F0), diffuse when F0 is 0, or, with
                        transmission, dielectric (IOR); emission colour x strength -> area emitter

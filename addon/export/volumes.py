@@ -5,8 +5,8 @@ the active voxels), placed by the file's transform and the object's. An emitting
 radiance is Blender's emission divided by the absorption, voxel by voxel, plus blackbody
 radiance from its temperature grid: it is computed on the density's stored bricks, with
 the temperature read at the same voxel indices (``read_vdb_aligned``), so it is sparse too.
-Blender's ``openvdb`` module (shared/README.md §4) is only used to write test and scene
-files.
+Blender's ``openvdb`` module (bundled with the bpy module) is only used to write test and
+scene files.
 """
 
 import os

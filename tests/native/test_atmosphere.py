@@ -1,4 +1,5 @@
-"""The atmosphere against the closed-form oracles of shared/README.md §3."""
+"""The atmosphere against closed-form oracles: transmittance along exponential profiles,
+the sphere quadratic at planet scale, white furnaces, and single scattering by quadrature."""
 
 import math
 

@@ -40,7 +40,7 @@ struct Bounds {
 
 // The cube [-1, 1]^3 under an invertible affine map (the scene language's `cube`, the usual
 // container of a medium): one primitive, intersected by the slab test (in world space when
-// the box is axis-aligned, else in its own), where twelve triangles cost a ray 2-3x as much.
+// the box is axis-aligned, else in its own), cheaper than its twelve triangles.
 struct Box {
     Transform to_world, to_local;
     bool flip_normals = false;

@@ -12,8 +12,7 @@ namespace volpath {
 // Lights with a distance strategy of their own (Scene::segment_lights): all but
 // environments. Seen through thin smoke, free flight's estimates of an environment's light
 // that passes through and of the light that scatters in are anticorrelated (one or the
-// other), and a second strategy for the in-scattering alone was measured 2-7x noisier under
-// a constant environment.
+// other), and a second strategy for the in-scattering alone would be noisier.
 // The distances follow what reaches the light: the transmittance from the segment's start
 // times the transmittance on toward the light, e^(-sigma_t t) e^(-sigma_t (d - t cos)) if
 // the medium ended at a plane facing the light at distance d: an exponential of rate
@@ -21,12 +20,7 @@ namespace volpath {
 // lights at a point and area lights, toward their centre from the segment's start).
 // Segments toward the light spread their distances along their length, segments away from
 // it gather them near the start. Each segment takes one such distance whether or not free
-// flight then collides on it, and its collision takes no NEE toward these lights. Measured
-// at equal error, in interleaved runs of the two builds at 96^2, against the scheme before (equiangular distances on segments of optical
-// depth up to 2, beside NEE at every collision): 5.4x less time on the single-scattering
-// bench scene (b), a point light beside a sphere of smoke; 1.6x on the thin fog in the sun
-// (e); 1.1x on the dense sphere under an area light (c), whose long walks pay for a shadow
-// ray on the segment that leaves the sphere too, but whose NEE is 18 % less noisy.
+// flight then collides on it, and its collision takes no NEE toward these lights.
 // The rate's factor (1 - cos) is kept above kMinTowardLightFactor, so that a segment aimed
 // at the light still has a proper density where it is unbounded.
 constexpr Real kMinTowardLightFactor = 1e-3;
@@ -35,9 +29,7 @@ constexpr Real kMinTowardLightFactor = 1e-3;
 // follow it NEE's variance is unbounded (1/D for segments passing at distance D): there
 // the segment takes a second distance, equiangular (Kulla and Fajardo 2012), and the two
 // are combined by the balance heuristic (their densities add). Near: 1/r^2 peaks on the
-// segment at more than kEquiangularPeak times its mean there. With a point light inside
-// a sphere of smoke (sigma_t 1, albedo 0.8, to depth 8), the exponential alone leaves 14x
-// the variance.
+// segment at more than kEquiangularPeak times its mean there.
 constexpr Real kEquiangularPeak = 4;
 
 // Where equiangular distances aim, for the lights that have one.

@@ -81,10 +81,9 @@ struct GridMedium {
     Spectrum Le_scale{0.0};
     Real scale = 1;
     // 0: automatic, one cell per ~10 voxels of the density's longest axis but at least 16
-    // (or one per voxel). Measured on bench/sparse_cloud.py: best between 16 and 32 cells
-    // on a 256^3 cloud; on the dense 64^3 bench cube (d), 12-20 cells within 3 % of each
-    // other and 7 cells ~8 % slower at equal error, since shadow rays toward delta lights
-    // track only what the minorants leave (residual ratio tracking, sample_T_maj).
+    // (or one per voxel): finer cells leave shadow rays toward delta lights less to track
+    // beyond the minorants (residual ratio tracking, sample_T_maj), up to where the cells'
+    // own cost wins.
     int majorant_res = 0;
     MajorantGrid majorants;
     PhaseFunction phase;
@@ -107,7 +106,7 @@ struct AtmosphereMedium {
     Real mie_g = 0.8;
     Spectrum ozone_sigma_a{0.650e-6, 1.881e-6, 0.085e-6};  // at the peak of the tent
     Real ozone_bottom = 10e3, ozone_peak = 25e3, ozone_top = 40e3;
-    int pieces = 4;  // majorant pieces per ray segment (measured: 1-4 cost the same, 16 twice as much)
+    int pieces = 4;  // majorant pieces per ray segment
     // Shadow rays to the sun: optical depth to the top of the atmosphere from a table over
     // (altitude, direction) built by prepare_medium; Simpson's rule on each ray; or ratio
     // tracking (unbiased; kept for the accuracy study).
@@ -281,8 +280,7 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
     // collision, and becomes T_maj only there (or at t_max): one exponential per collision,
     // none per piece. In the sampling channel T_maj at a collision is exp(-tau) = 1 - u by
     // construction: while the majorant is grey, a collision needs no exponential at all.
-    // The optical depth is -log(1 - u), not -log1p(-u): log1p took 8.5 % of a render of
-    // bench (d), log takes 3.9 % (0.92-0.95x the time, the same decisions), and 1 - u is exact
+    // The optical depth is -log(1 - u), not -log1p(-u): log is twice as fast, and 1 - u is exact
     // for the sampler's uniforms, multiples of 2^-32 (a forced probability scales them:
     // then it is off by 2^-53 at most, far below what any distance here resolves).
     Spectrum tau_maj(0.0);

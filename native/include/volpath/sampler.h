@@ -96,8 +96,7 @@ public:
     // A number outside the dimensions, for draws whose count varies from sample to sample
     // (a shadow ray's, a flight's tentative collisions after the first): drawn from the
     // sequence, they would shift the path's later decisions onto other dimensions in each
-    // sample, which then no longer form one stratified set. Measured on the heterogeneous
-    // cube (d): 4-7 % lower error at equal spp than with every draw from the sequence.
+    // sample, which then no longer form one stratified set.
     Real independent_1d() { return next_u32() * 0x1p-32; }
     Vec2 next_2d() {
         if (!ld_ || dimension_ >= kLowDiscrepancyDimensions) {
@@ -117,8 +116,8 @@ public:
     Sampler split() const { return Sampler(key_, 0x5eed, index_, ld_); }
 
     // Beyond the first decisions of a path (camera, channel, the first few events) the
-    // stratification is lost to diverging path lengths anyway, and hashing costs ~30 %
-    // in long random walks: later dimensions are independent numbers.
+    // stratification is lost to diverging path lengths anyway, and hashing would cost long
+    // random walks dearly: later dimensions are independent numbers.
     static constexpr uint64_t kLowDiscrepancyDimensions = 24;
 
 private:

@@ -3,10 +3,8 @@
 //
 // Seen from a point low in the air, most of the light scattered toward it comes from a
 // thin band along the horizon and from the aureole around the sun: a small part of the
-// sphere, which phase sampling (Rayleigh's lobe is nearly uniform) seldom picks. On the
-// 2-degree sunrise sky, 64 phase-sampled directions at the first vertex instead of one left
-// a thirtieth of double scattering's variance: the direction, not the distances, is where
-// multiple scattering's noise comes from.
+// sphere, which phase sampling (Rayleigh's lobe is nearly uniform) seldom picks: the
+// direction, not the distances, is where multiple scattering's noise comes from.
 //
 // For one sun, the map tabulates the radiance arriving at a point from each direction
 // (the sun's single scattering along it, AirSegment's model, and the sunlit ground) at

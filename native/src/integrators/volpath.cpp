@@ -19,16 +19,13 @@ constexpr int kMaxNullCrossings = 256;
 
 // Russian roulette keeps a path with probability min(throughput, kMaxSurvival). Near 1, so
 // that long walks in dense, bright media (albedo 0.98-0.99) are not cut for nothing;
-// below 1, so that a walk that loses no energy (albedo 1, closed) still ends. Measured
-// against Mitsuba's 0.95 at equal time: 1.12x on the dense sphere (c), 1.3x on the sparse
-// cloud, neutral on the others.
+// below 1, so that a walk that loses no energy (albedo 1, closed) still ends (the choice's
+// measurements, and the other constants': bench/RESULTS.md, "Constants chosen by measurement").
 constexpr Real kMaxSurvival = 0.99;
 
 // A shadow ray whose transmittance has fallen below kShadowRouletteT at a boundary goes on
 // with probability T / kShadowRouletteT (weighted up to match): from deep inside a dense
-// medium, what the rest of the ray finds barely counts. Measured on the dense sphere (c)
-// at equal error: 0.05 and 0.1 take 0.93x the time of no roulette, 0.02 0.95x, 0.2 0.96x,
-// 0.5 1.05x; the thinner media (d), (e) unchanged.
+// medium, what the rest of the ray finds barely counts.
 constexpr Real kShadowRouletteT = 0.05;
 
 // MIS between strategies whose channel-averaged densities are in the ratio a : b : c, with
@@ -60,22 +57,18 @@ const AtmosphereMedium *guided_air(const Medium &m) {
 }
 
 // After scattering in guided air, a direction is drawn from the sky map (SkyMap) with this
-// probability, else from the phase function. Measured on the 2-degree sky: where the map
-// only guides, 0.5 does best (0.25 and 0.75 take 1.06x and 1.3x the time to equal error);
-// where it is also a control variate (below), 0.05-0.1 (0.25: 1.1x, 0.5: 1.4x): its model
-// then does most of the work that the directions drawn from it would.
+// probability, else from the phase function; less where the map is also a control variate
+// (below): its model then does most of the work that the directions drawn from it would.
 constexpr Real kSkyMapShareGuide = 0.5, kSkyMapShareModel = 0.1;
 // Russian roulette at scattering events in the air from kSkyRouletteDepth on, where the sky
 // map predicts what the path brings back: survival kSkyRouletteSurvival, and the map's
-// prediction as a control variate (see scatter_in_medium). Measured on the 2-degree sky
-// at equal error: 0.55 from depth 2; 0.45 and 0.65 take 1.06x and 1.02x the time, 0.35
-// 1.2x (the walks are cut short, the prediction carries their rest).
+// prediction as a control variate (see scatter_in_medium): the walks are cut short, the
+// prediction carries their rest.
 constexpr Real kSkyRouletteSurvival = 0.55;
 constexpr int kSkyRouletteDepth = 2;
 // Mie's share of the map's light scattered at an event has no closed-form integral (its lobe
 // is narrow, the map piecewise constant): kMieLobeSamples directions of the lobe estimate it,
-// without bias, from the map alone. Measured: 1 to 4 within 6 %, 2 best (1.46x less time to
-// equal error than without Mie's share).
+// without bias, from the map alone.
 constexpr int kMieLobeSamples = 2;
 const SkyMap *sky_map_of(const Medium &m) {
     const AtmosphereMedium *air = guided_air(m);
@@ -214,10 +207,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
             } else {
                 // Ratio tracking. Toward a delta light, which no other strategy finds (no
                 // MIS, so r_u is not needed), residual ratio tracking: the minorants'
-                // share of the optical depth is exact, only the rest is tracked. Measured
-                // on the heterogeneous cube (d), interleaved A/B runs: with 16 majorant
-                // cells 0.87-0.91x the time to equal error of plain ratio tracking with the
-                // 7 it had (12 % less variance); residual at 7 cells 0.98x, plain at 16 1.03x.
+                // share of the optical depth is exact, only the rest is tracked.
                 Spectrum tau_min(0.0), tau_seen(0.0), T_min(1.0);
                 const Spectrum T_maj = sample_T_maj(
                     m, ray, t_end, channel, sampler,
@@ -716,8 +706,7 @@ Step Path::fly_through_medium(Real t_end) {
                 // segment's choices come from one uniform (ChoiceChain): the segment is
                 // crossed where that exceeds 1 - (the tentative collisions' ratio-tracking
                 // estimate of T), a threshold stratified over the pixel's samples like any
-                // dimension. Measured on the heterogeneous cube (d): 7 % lower error at
-                // equal time than a number per choice.
+                // dimension, where a number per choice would not be.
                 if (real_or_null.choose(sigma_t[channel] / sigma_maj[channel], sampler)) {
                     if (last_vertex()) {
                         terminated = true;
@@ -829,9 +818,7 @@ Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler
 // two estimates that add up to the usual one: the path that crosses the segment without
 // a tentative collision (weighted by that probability, T_maj) and the path forced to
 // collide in it (weighted by 1 - T_maj). Plain free flight would pick one of the two at
-// random. Measured at equal time (docs/accuracy.md scenes, 128^2): 2.3x less variance on
-// the thin fog (e), the same on the sky, where shadow rays dominate the noise; splitting
-// only the unlikely collisions (P < 0.5) was worse than both.
+// random, and spend the pixel's samples on whichever branch the draw favoured.
 Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config) {
     const Features feat = features_of(config);
     bool split = medium >= 0 && feat.scatter;

@@ -225,8 +225,7 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     if (map && s.models_light) add_scattered_light(s, *map);
     // Collisions follow the light (the sun's, or all of it with the map's): the weights are
     // normalised per channel, so the sun's irradiance drops out. With the map's light, twice
-    // and more scattered light is gathered where it scatters (1.07x less time to equal
-    // error on the 2-degree sky than the sun's light alone).
+    // and more scattered light is gathered where it scatters.
     set_weights(s, free_flight);
     return s;
 }

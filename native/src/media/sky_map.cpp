@@ -126,11 +126,11 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
     if (view.altitude >= m.height) half = kPi / 2;
     else mid = std::clamp(step * std::round(view.sun_elevation / step), -kPi / 2 + half, kPi / 2 - half);
     m.elevation_lo = mid - half, m.elevation_step = 2 * half / (NE - 1);
-    // Where the map stands for the light well enough to be a control variate (measured: in
-    // twilight, and seen from space through its coarse elevations, it is far off).
+    // Where the map stands for the light well enough to be a control variate: not in
+    // twilight, nor seen from space through its coarse elevations.
     m.models_light = view.altitude < m.height && view.sun_elevation >= 0;
-    // Levels crowd near the ground, where the air is densest (cubic spacing: 16 levels
-    // did what 48 quadratic ones did); the lowest just off the ground, the top just inside.
+    // Levels crowd near the ground, where the air is densest (cubic spacing); the lowest
+    // just off the ground, the top just inside.
     for (int j = 0; j < NA; ++j) {
         m.radius[j] = air.planet_radius * (1 + 1e-7) + m.height * std::pow(Real(j) / (NA - 1), 3.0) * (1 - 1e-6);
         m.horizon[j] = -safe_sqrt(1 - sqr(air.planet_radius / m.radius[j]));
