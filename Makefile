@@ -5,9 +5,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(VENV)/bin/pip
 # Debian packages the build needs (installed only when missing; OpenVDB and the Boost
-# headers it includes, for volpath._vdb). The Python headers and
+# headers it includes, for volpath._vdb; clang-format for `make lint`). The Python headers and
 # venv come from Debian only when the Python in use lacks them.
-DEBIAN_PACKAGES := g++ make libopenvdb-dev libboost-iostreams-dev
+DEBIAN_PACKAGES := g++ make libopenvdb-dev libboost-iostreams-dev clang-format
 PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo python3-venv) \
             $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
@@ -19,7 +19,7 @@ RES ?= 320x180
 FRAMES ?= 1-72
 JOBS ?= 2
 
-.PHONY: all setup test bench accuracy sunrise clean debian fuzz sanitize wheel extension
+.PHONY: all setup test lint format bench accuracy sunrise clean debian fuzz sanitize wheel extension
 
 all: test
 
@@ -46,6 +46,18 @@ setup: debian $(VENV)/.native
 
 test: setup
 	$(VENV)/bin/pytest -n $(JOBS) --dist loadgroup -q tests
+
+# Style: ruff (lint and format, pyproject.toml) for Python, clang-format (.clang-format) for C++.
+CXX_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h')
+lint: debian $(VENV)/.requirements
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	clang-format --dry-run --Werror $(CXX_SOURCES)
+
+format: debian $(VENV)/.requirements
+	$(VENV)/bin/ruff check --fix .
+	$(VENV)/bin/ruff format .
+	clang-format -i $(CXX_SOURCES)
 
 $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 	$(PIP) install -q -r requirements-bench.txt

@@ -24,7 +24,8 @@ def register():
         raise RuntimeError(
             f"Volpath: the native renderer is not available for this platform ({platform.system()} "
             f"{platform.machine()}, Python {sys.version_info.major}.{sys.version_info.minor}): {problem}. "
-            "The extension ships a wheel for Linux x86_64 (glibc 2.36 or newer); build one with `make wheel`.")
+            "The extension ships a wheel for Linux x86_64 (glibc 2.36 or newer); build one with `make wheel`."
+        )
     from .addon import register as register_addon
 
     register_addon()

@@ -52,7 +52,9 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             elapsed = now - start
             remaining = elapsed * (1 - fraction) / fraction if fraction > 0 else float("nan")
             self.update_progress(fraction)
-            left = f", {describe(adaptive)}" if adaptive else (f", about {remaining:.0f} s left" if fraction > 0 else "")
+            left = (
+                f", {describe(adaptive)}" if adaptive else (f", about {remaining:.0f} s left" if fraction > 0 else "")
+            )
             self.update_stats("", f"Volpath | {samples} | {tracer} | {elapsed:.1f} s{left}")
             if now - last_shown > 0.5:
                 _show(result, image)
@@ -61,9 +63,18 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             return True
 
         try:
-            volpath.render(vp_scene, spp=settings.spp, seed=settings.seed, threads=settings.threads or None,
-                           tracer=tracer, progress=progress, out=image, target_error=target, status=adaptive.update,
-                           denoise=settings.use_denoising)
+            volpath.render(
+                vp_scene,
+                spp=settings.spp,
+                seed=settings.seed,
+                threads=settings.threads or None,
+                tracer=tracer,
+                progress=progress,
+                out=image,
+                target_error=target,
+                status=adaptive.update,
+                denoise=settings.use_denoising,
+            )
         except volpath.RenderCancelled:
             _show(result, image)
             self.end_result(result, cancel=True)

@@ -50,11 +50,19 @@ class VideoJob:
         s = scene.volpath
         self.out_dir = bpy.path.abspath(s.video_directory)
         self.frames = frame_list(scene, step=s.video_step)
-        options = Options(spp=s.spp, target_error=s.adaptive_threshold if s.use_adaptive_sampling else 0.0,
-                          denoise=s.use_denoising,
-                          tracer=s.tracer, workers=s.video_workers, threads=s.threads,
-                          scheduler=s.video_scheduler.strip(), resume=s.video_resume, fps=s.video_fps,
-                          exposure="auto", video_name=f"{bpy.path.clean_name(scene.name)}.mp4")
+        options = Options(
+            spp=s.spp,
+            target_error=s.adaptive_threshold if s.use_adaptive_sampling else 0.0,
+            denoise=s.use_denoising,
+            tracer=s.tracer,
+            workers=s.video_workers,
+            threads=s.threads,
+            scheduler=s.video_scheduler.strip(),
+            resume=s.video_resume,
+            fps=s.video_fps,
+            exposure="auto",
+            video_name=f"{bpy.path.clean_name(scene.name)}.mp4",
+        )
         self.cancel = threading.Event()
         self.done = self.total = 0
         self.started = time.monotonic()
@@ -96,12 +104,15 @@ class VideoJob:
             operator.report({"ERROR"}, f"Volpath: frame {f} failed: {self.run.status[f]['error']}")
         kept = sum(1 for s in self.run.status.values() if s["status"] in ("rendered", "kept"))
         if self.cancel.is_set():
-            operator.report({"WARNING"}, f"Volpath video cancelled: {kept} frames kept in {self.out_dir} "
-                                         "(run again with Resume to finish)")
+            operator.report(
+                {"WARNING"},
+                f"Volpath video cancelled: {kept} frames kept in {self.out_dir} (run again with Resume to finish)",
+            )
             return {"CANCELLED"}
         video = self.summary.get("video") if self.summary else None
-        operator.report({"INFO"}, f"Volpath video: {video} ({kept} frames); "
-                                  "Open Output Folder in the Animation to Video panel")
+        operator.report(
+            {"INFO"}, f"Volpath video: {video} ({kept} frames); Open Output Folder in the Animation to Video panel"
+        )
         bpy.context.window_manager.volpath_last_output = self.out_dir
         self._show_last_frame()
         return {"FINISHED"}
@@ -159,8 +170,9 @@ class VOLPATH_OT_render_video(bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         context.window_manager.progress_update(job.done)
-        context.workspace.status_text_set(job.status_text() if not job.cancel.is_set()
-                                          else "Volpath video: cancelling (finished frames are kept)")
+        context.workspace.status_text_set(
+            job.status_text() if not job.cancel.is_set() else "Volpath video: cancelling (finished frames are kept)"
+        )
         if not job.finished:
             return {"PASS_THROUGH"}
         wm = context.window_manager

@@ -65,7 +65,9 @@ def _tracer(text):
     import volpath
 
     if text != "auto" and text not in volpath.TRACERS:
-        raise argparse.ArgumentTypeError(f"unknown tracer '{text}' (expected auto or one of: {', '.join(volpath.TRACERS)})")
+        raise argparse.ArgumentTypeError(
+            f"unknown tracer '{text}' (expected auto or one of: {', '.join(volpath.TRACERS)})"
+        )
     return text
 
 
@@ -78,29 +80,53 @@ def _count(minimum):
         if value < minimum:
             raise argparse.ArgumentTypeError(f"{value}: must be at least {minimum}")
         return value
+
     return parse
 
 
 def parser():
     p = argparse.ArgumentParser(prog="python -m addon.sunrise", description=__doc__.split("\n\n")[0])
-    p.add_argument("--blend", help=f"the .blend to render (default: the open file inside Blender, else {DEFAULT_BLEND})")
+    p.add_argument(
+        "--blend", help=f"the .blend to render (default: the open file inside Blender, else {DEFAULT_BLEND})"
+    )
     p.add_argument("--frames", type=_frames, help="frame or range, e.g. 1-72 (default: the scene's range)")
     p.add_argument("--step", type=_count(1), help="render every STEP-th frame (default: the scene's frame step)")
     p.add_argument("--res", type=_resolution, help="WIDTHxHEIGHT (default: the scene's output size)")
-    p.add_argument("--spp", type=_count(1), help="samples per pixel, or the cap with --target-error (default: the "
-                                                 "scene's Volpath samples)")
-    p.add_argument("--target-error", type=_display_error, metavar="E",
-                   help="render each frame to this RMS error of the displayed frame, in display units 0..1 "
-                        "(e.g. 0.02; default: the scene's Noise Threshold, 0 = off: fixed spp)")
-    p.add_argument("--denoise", action=argparse.BooleanOptionalAction, default=None,
-                   help="denoise each frame with Intel Open Image Denoise (default: the scene's Denoise setting)")
-    p.add_argument("--tracer", type=_tracer, help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)")
+    p.add_argument(
+        "--spp",
+        type=_count(1),
+        help="samples per pixel, or the cap with --target-error (default: the scene's Volpath samples)",
+    )
+    p.add_argument(
+        "--target-error",
+        type=_display_error,
+        metavar="E",
+        help="render each frame to this RMS error of the displayed frame, in display units 0..1 "
+        "(e.g. 0.02; default: the scene's Noise Threshold, 0 = off: fixed spp)",
+    )
+    p.add_argument(
+        "--denoise",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="denoise each frame with Intel Open Image Denoise (default: the scene's Denoise setting)",
+    )
+    p.add_argument(
+        "--tracer",
+        type=_tracer,
+        help="auto or absorption, single, multiple, nee_mis, null_scattering (default: the scene's)",
+    )
     p.add_argument("--out", default=os.path.join("out", "sunrise"), help="output directory (default: out/sunrise)")
     p.add_argument("--fps", type=_count(1), default=24, help="video frame rate (default: 24)")
-    p.add_argument("--exposure", type=_exposure, default="auto",
-                   help="stops for the PNGs and video, or 'auto' (middle grey, smoothed over frames; the default)")
+    p.add_argument(
+        "--exposure",
+        type=_exposure,
+        default="auto",
+        help="stops for the PNGs and video, or 'auto' (middle grey, smoothed over frames; the default)",
+    )
     p.add_argument("--workers", type=_count(0), default=0, help="local worker processes (default: one per core)")
-    p.add_argument("--threads", type=_count(0), default=0, help="threads per frame (default: cores / workers; 1 on Dask)")
+    p.add_argument(
+        "--threads", type=_count(0), default=0, help="threads per frame (default: cores / workers; 1 on Dask)"
+    )
     p.add_argument("--scheduler", default="", help="Dask distributed scheduler address, e.g. tcp://host:8786")
     p.add_argument("--resume", action="store_true", help="keep frames whose EXR exists and reads back valid")
     return p
@@ -110,7 +136,7 @@ def _user_args(argv):
     """Inside Blender the script's options follow `--`."""
     if argv is not None:
         return argv
-    return sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    return sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
 
 
 def main(argv=None):
@@ -131,20 +157,34 @@ def main(argv=None):
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.blend))
     elif not bpy.data.filepath:
         if not os.path.isfile(DEFAULT_BLEND):
-            print(f"error: {DEFAULT_BLEND} does not exist: build it with `make sunrise` "
-                  "(scenes/sunrise/build.py)", file=sys.stderr)
+            print(
+                f"error: {DEFAULT_BLEND} does not exist: build it with `make sunrise` (scenes/sunrise/build.py)",
+                file=sys.stderr,
+            )
             return 2
         bpy.ops.wm.open_mainfile(filepath=DEFAULT_BLEND)
     scene = bpy.context.scene
     try:
         frames = frame_list(scene, args.frames, args.step)
         s = scene.volpath
-        target = args.target_error if args.target_error is not None else \
-            (s.adaptive_threshold if s.use_adaptive_sampling else 0.0)
+        target = (
+            args.target_error
+            if args.target_error is not None
+            else (s.adaptive_threshold if s.use_adaptive_sampling else 0.0)
+        )
         denoise = s.use_denoising if args.denoise is None else args.denoise
-        options = Options(spp=args.spp or s.spp, target_error=target, denoise=denoise, tracer=args.tracer or s.tracer,
-                          workers=args.workers, threads=args.threads, scheduler=args.scheduler,
-                          resume=args.resume, fps=args.fps, exposure=args.exposure)
+        options = Options(
+            spp=args.spp or s.spp,
+            target_error=target,
+            denoise=denoise,
+            tracer=args.tracer or s.tracer,
+            workers=args.workers,
+            threads=args.threads,
+            scheduler=args.scheduler,
+            resume=args.resume,
+            fps=args.fps,
+            exposure=args.exposure,
+        )
         options.check()
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
@@ -174,8 +214,10 @@ def render_animation(scene, frames, out, options):
         print(f"warning: {w}", file=sys.stderr)
     summary = run.execute()
     failed = run.failed()
-    print(f"{len(frames) - len(failed)}/{len(frames)} frames in {time.monotonic() - start:.0f} s; "
-          f"video: {summary.get('video')}; summary: {run.summary_path}")
+    print(
+        f"{len(frames) - len(failed)}/{len(frames)} frames in {time.monotonic() - start:.0f} s; "
+        f"video: {summary.get('video')}; summary: {run.summary_path}"
+    )
     for f in failed:
         print(f"frame {f} failed: {run.status[f]['error']}")
     return 1 if failed else 0

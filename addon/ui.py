@@ -90,10 +90,21 @@ class VOLPATH_PT_atmosphere(_VolpathPanel, bpy.types.Panel):
 CLASSES = (VOLPATH_PT_sampling, VOLPATH_PT_light_paths, VOLPATH_PT_volumes, VOLPATH_PT_video, VOLPATH_PT_atmosphere)
 
 # Blender's panels for what the exporter reads: camera, lights, materials, world, volumes.
-_BLENDER_PANELS = ("DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_dof", "DATA_PT_context_light",
-                   "DATA_PT_light", "DATA_PT_EEVEE_light", "EEVEE_MATERIAL_PT_context_material",
-                   "EEVEE_MATERIAL_PT_surface", "EEVEE_MATERIAL_PT_volume", "EEVEE_WORLD_PT_surface",
-                   "DATA_PT_volume_file", "DATA_PT_volume_grids", "DATA_PT_volume_render")
+_BLENDER_PANELS = (
+    "DATA_PT_lens",
+    "DATA_PT_camera",
+    "DATA_PT_camera_dof",
+    "DATA_PT_context_light",
+    "DATA_PT_light",
+    "DATA_PT_EEVEE_light",
+    "EEVEE_MATERIAL_PT_context_material",
+    "EEVEE_MATERIAL_PT_surface",
+    "EEVEE_MATERIAL_PT_volume",
+    "EEVEE_WORLD_PT_surface",
+    "DATA_PT_volume_file",
+    "DATA_PT_volume_grids",
+    "DATA_PT_volume_render",
+)
 
 
 def _blender_panels():

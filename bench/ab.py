@@ -60,15 +60,15 @@ def source_tree(rev):
     and a cache key."""
     if rev == "WORKTREE":
         return ROOT, "worktree"
-    sha = subprocess.run(["git", "rev-parse", "--verify", rev + "^{commit}"], cwd=ROOT, capture_output=True,
-                         text=True)
+    sha = subprocess.run(["git", "rev-parse", "--verify", rev + "^{commit}"], cwd=ROOT, capture_output=True, text=True)
     if sha.returncode:
         sys.exit(f"ab.py: {rev!r} is not a revision of this repository")
     sha = sha.stdout.strip()
     src = os.path.join(CACHE, sha, "src")
     if not os.path.isdir(src):
-        archive = subprocess.run(["git", "archive", sha, "native", "volpath"], cwd=ROOT, capture_output=True,
-                                 check=True).stdout
+        archive = subprocess.run(
+            ["git", "archive", sha, "native", "volpath"], cwd=ROOT, capture_output=True, check=True
+        ).stdout
         with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
             # Our own archive; the "data" filter where this Python has it (3.11.4 on).
             tar.extractall(src, **({"filter": "data"} if hasattr(tarfile, "data_filter") else {}))
@@ -84,14 +84,29 @@ def build(rev):
     if not os.path.exists(os.path.join(build_dir, "CMakeCache.txt")):  # later builds reconfigure as needed
         import pybind11
 
-        subprocess.run(["cmake", "-S", os.path.join(src, "native"), "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release",
-                        f"-Dpybind11_DIR={pybind11.get_cmake_dir()}", f"-DPython_EXECUTABLE={sys.executable}"],
-                       check=True, capture_output=True)
-    subprocess.run(["cmake", "--build", build_dir, "--target", "_core", "-j", str(os.cpu_count() or 2)], check=True,
-                   capture_output=True)
+        subprocess.run(
+            [
+                "cmake",
+                "-S",
+                os.path.join(src, "native"),
+                "-B",
+                build_dir,
+                "-DCMAKE_BUILD_TYPE=Release",
+                f"-Dpybind11_DIR={pybind11.get_cmake_dir()}",
+                f"-DPython_EXECUTABLE={sys.executable}",
+            ],
+            check=True,
+            capture_output=True,
+        )
+    subprocess.run(
+        ["cmake", "--build", build_dir, "--target", "_core", "-j", str(os.cpu_count() or 2)],
+        check=True,
+        capture_output=True,
+    )
     shutil.rmtree(pkg, ignore_errors=True)
-    shutil.copytree(os.path.join(src, "volpath"), os.path.join(pkg, "volpath"),
-                    ignore=shutil.ignore_patterns("*.so", "__pycache__"))
+    shutil.copytree(
+        os.path.join(src, "volpath"), os.path.join(pkg, "volpath"), ignore=shutil.ignore_patterns("*.so", "__pycache__")
+    )
     for name in os.listdir(build_dir):
         if name.startswith("_core") and name.endswith(".so"):
             shutil.copy(os.path.join(build_dir, name), os.path.join(pkg, "volpath"))
@@ -131,9 +146,24 @@ def main():
             for rev, pkg in packages.items():
                 # -S: no site hooks, so that the editable install's finder does not shadow `pkg`.
                 env = dict(os.environ, PYTHONPATH=os.pathsep.join([pkg, site]))
-                result = subprocess.run([sys.executable, "-S", "-c", CHILD, os.path.abspath(args.scene), str(args.spp),
-                                         str(1000 * r + s), str(args.threads), out, *args.param],
-                                        env=env, cwd=CACHE, capture_output=True, text=True)
+                result = subprocess.run(
+                    [
+                        sys.executable,
+                        "-S",
+                        "-c",
+                        CHILD,
+                        os.path.abspath(args.scene),
+                        str(args.spp),
+                        str(1000 * r + s),
+                        str(args.threads),
+                        out,
+                        *args.param,
+                    ],
+                    env=env,
+                    cwd=CACHE,
+                    capture_output=True,
+                    text=True,
+                )
                 if result.returncode:
                     sys.exit(f"ab.py: {rev} failed:\n{result.stderr}")
                 renders[rev][0].append(np.load(out))
@@ -142,8 +172,10 @@ def main():
     for rev, (images, seconds) in renders.items():
         variance, median, cost = time_to_equal_error(images, seconds)
         base = base or cost
-        print(f"{rev:>12}: {median:.3f} s per render, variance {variance:.4e}, mean {np.mean(images):.5f}, "
-              f"time to equal error {cost / base:.3f}x the first")
+        print(
+            f"{rev:>12}: {median:.3f} s per render, variance {variance:.4e}, mean {np.mean(images):.5f}, "
+            f"time to equal error {cost / base:.3f}x the first"
+        )
 
 
 if __name__ == "__main__":

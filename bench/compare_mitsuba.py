@@ -160,17 +160,28 @@ def run_scene(key, args, variants):
         target = next(p for p in rows["volpath"] if p[2] == args.target_spp)[1]
     if target is None:
         raise SystemExit(f"({key}): the target render is as good as the reference; raise --ref-seconds")
-    result = {"ref_spp": ref_spp, "ref_rmse": float(np.sqrt(ref_var)), "ref_time": ref_time, "target": target,
-              "mean": float(ref.mean()), "renderers": {}}
+    result = {
+        "ref_spp": ref_spp,
+        "ref_rmse": float(np.sqrt(ref_var)),
+        "ref_time": ref_time,
+        "target": target,
+        "mean": float(ref.mean()),
+        "renderers": {},
+    }
     for n, pts in rows.items():
         t, slope, bound = time_for([(p[0], p[1]) for p in pts if p[1] is not None], target)
-        result["renderers"][n] = {"time": t, "slope": slope, "bound": bound,
-                                  "points": [(p[2], p[0], p[1], p[4]) for p in pts]}
+        result["renderers"][n] = {
+            "time": t,
+            "slope": slope,
+            "bound": bound,
+            "points": [(p[2], p[0], p[1], p[4]) for p in pts],
+        }
         if n != "volpath":
             # Agreement: the highest-spp peer image against the reference, by the mean.
             img_hi = pts[-1][3]
             result["renderers"][n]["agreement"] = {
-                "mean_diff_rel": float(np.mean(img_hi) - ref.mean()) / max(float(ref.mean()), 1e-12)}
+                "mean_diff_rel": float(np.mean(img_hi) - ref.mean()) / max(float(ref.mean()), 1e-12)
+            }
     return result
 
 
@@ -190,19 +201,26 @@ def machine():
 def markdown(results, args, variants):
     date = datetime.date.today().isoformat()
     peers = [f"mitsuba {v}" for v in variants] + (["cycles"] if args.cycles else [])
-    lines = [f"## Volpath vs Mitsuba 3 and Cycles 5.0 — {date}", "",
-             f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
-             "spp shown, as two independent halves, whose difference measures the reference's own variance (its "
-             "RMSE shown): it is taken off every squared error, so that RMSEs are against the true image. "
-             f"Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
-             "come from a log–log fit of RMSE against seconds over spp " + ", ".join(map(str, args.ladder)) +
-             " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation)" +
-             (f"; each the fastest of {args.repeats} renders" if args.repeats > 1 else "") + "; a time "
-             "marked ≤ is the cheapest render's, which already meets the target (no extrapolation below it).",
-             f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.", "",
-             "| scene | ref spp (RMSE) | target RMSE (rel.) | Volpath s | " +
-             " | ".join(f"{v} s" for v in peers) + " | Volpath / best peer | slopes (V; peers) | mean diff vs peers |",
-             "|---|---|---|---|" + "---|" * len(peers) + "---|---|---|"]
+    lines = [
+        f"## Volpath vs Mitsuba 3 and Cycles 5.0 — {date}",
+        "",
+        f"Machine: {machine()}. {THREADS} threads each, {args.res}×{args.res}, reference: Volpath at the "
+        "spp shown, as two independent halves, whose difference measures the reference's own variance (its "
+        "RMSE shown): it is taken off every squared error, so that RMSEs are against the true image. "
+        f"Target error: the fastest Mitsuba variant's RMSE at {args.target_spp} spp. Times to reach it "
+        "come from a log–log fit of RMSE against seconds over spp "
+        + ", ".join(map(str, args.ladder))
+        + " (Cycles from 4: its times are net of a 1-spp render, the scene's synchronisation)"
+        + (f"; each the fastest of {args.repeats} renders" if args.repeats > 1 else "")
+        + "; a time "
+        "marked ≤ is the cheapest render's, which already meets the target (no extrapolation below it).",
+        f"Peers: {', '.join(peers) or 'none available'}. Target (issue #12): Volpath ≤ 0.5× the better peer.",
+        "",
+        "| scene | ref spp (RMSE) | target RMSE (rel.) | Volpath s | "
+        + " | ".join(f"{v} s" for v in peers)
+        + " | Volpath / best peer | slopes (V; peers) | mean diff vs peers |",
+        "|---|---|---|---|" + "---|" * len(peers) + "---|---|---|",
+    ]
     for key, r in results.items():
         rv = r["renderers"]["volpath"]
         mts = [r["renderers"].get(v) for v in peers]
@@ -211,9 +229,10 @@ def markdown(results, args, variants):
         slopes = f"{rv['slope']:.2f}; " + ", ".join(f"{m['slope']:.2f}" for m in mts if m)
         agree = ", ".join(f"{100 * m['agreement']['mean_diff_rel']:+.2f} %" for m in mts if m)
         shown = lambda m: f"{'≤' if m['bound'] else ''}{m['time']:.3f}"  # noqa: E731
-        lines.append(f"| ({key}) {SCENES[key][0]} | {r['ref_spp']} ({r['ref_rmse']:.2g}) | {r['target']:.4g} ({r['target'] / max(r['mean'], 1e-12):.2%}) | "
-                     f"{shown(rv)} | " + " | ".join(shown(m) if m else "—" for m in mts) +
-                     f" | {ratio} | {slopes} | {agree} |")
+        lines.append(
+            f"| ({key}) {SCENES[key][0]} | {r['ref_spp']} ({r['ref_rmse']:.2g}) | {r['target']:.4g} ({r['target'] / max(r['mean'], 1e-12):.2%}) | "
+            f"{shown(rv)} | " + " | ".join(shown(m) if m else "—" for m in mts) + f" | {ratio} | {slopes} | {agree} |"
+        )
     lines += ["", "Raw points (spp, seconds, RMSE net of the reference's variance, RMSE against the reference):", ""]
     net = lambda e: "—" if e is None else f"{e:.4g}"  # noqa: E731
     for key, r in results.items():
@@ -230,9 +249,15 @@ def main():
     ap.add_argument("--ladder", type=int, nargs="+", default=[1, 4, 16, 64, 256])
     ap.add_argument("--target-spp", type=int, default=64)
     ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
-    ap.add_argument("--out", help="write a new Markdown file here with this table (make bench appends the other benchmarks)")
-    ap.add_argument("--repeats", type=int, default=1,
-                    help="render each rung this many times and keep the fastest (for noisy machines)")
+    ap.add_argument(
+        "--out", help="write a new Markdown file here with this table (make bench appends the other benchmarks)"
+    )
+    ap.add_argument(
+        "--repeats",
+        type=int,
+        default=1,
+        help="render each rung this many times and keep the fastest (for noisy machines)",
+    )
     ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
     args = ap.parse_args()
     if args.cycles:
@@ -254,9 +279,11 @@ def main():
     if args.out:
         kept = kept_section(args.out)
         with open(args.out, "w") as f:
-            f.write("# Benchmark results\n\nProduced by `make bench` (bench/compare_mitsuba.py); "
-                    "each section's numbers come from one run, not always the same one: this table names its\n"
-                    "machine and date, and later sections theirs where they were measured apart.\n\n" + kept + text)
+            f.write(
+                "# Benchmark results\n\nProduced by `make bench` (bench/compare_mitsuba.py); "
+                "each section's numbers come from one run, not always the same one: this table names its\n"
+                "machine and date, and later sections theirs where they were measured apart.\n\n" + kept + text
+            )
 
 
 def kept_section(path):
@@ -268,7 +295,7 @@ def kept_section(path):
     except FileNotFoundError:
         return ""
     start, end = old.find("<!-- constants"), old.find("<!-- /constants -->")
-    return old[start:end + len("<!-- /constants -->")] + "\n\n" if 0 <= start < end else ""
+    return old[start : end + len("<!-- /constants -->")] + "\n\n" if 0 <= start < end else ""
 
 
 if __name__ == "__main__":

@@ -17,8 +17,6 @@ import os
 import tempfile
 import time
 
-import numpy as np
-
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -32,8 +30,14 @@ def _camera(bpy, origin, target, fov, far=1000.0):
     cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
     bpy.context.collection.objects.link(cam)
     # Blender's camera looks along -Z with +Y up and +X to the right.
-    cam.matrix_world = Matrix(((right.x, up.x, -forward.x, o.x), (right.y, up.y, -forward.y, o.y),
-                               (right.z, up.z, -forward.z, o.z), (0, 0, 0, 1)))
+    cam.matrix_world = Matrix(
+        (
+            (right.x, up.x, -forward.x, o.x),
+            (right.y, up.y, -forward.y, o.y),
+            (right.z, up.z, -forward.z, o.z),
+            (0, 0, 0, 1),
+        )
+    )
     cam.data.sensor_fit = "HORIZONTAL"
     cam.data.angle = math.radians(fov)
     cam.data.clip_start, cam.data.clip_end = 0.01, far
@@ -149,11 +153,12 @@ def build(key, res, tmp):
         _camera(bpy, (0, 1, 5), (0, -0.2, 0), 40)
         _sphere(bpy, (0, 0, 0), 1, _material(bpy, "cloud", volume=(5.0, (0.99, 0.99, 0.99), 0.6)))
         _rectangle(bpy, 10, (0, -1, 0), (0, 1, 0), _material(bpy, "floor", diffuse=(0.5, 0.5, 0.5)))
-        _light(bpy, "AREA", location=(0, 3, 0), direction=(0, -1, 0), size=1.5, energy=15 * math.pi * 1.5 ** 2)
+        _light(bpy, "AREA", location=(0, 3, 0), direction=(0, -1, 0), size=1.5, energy=15 * math.pi * 1.5**2)
         return 64
     if key == "d":
         _camera(bpy, (2.5, 2, 4), (0, 0, 0), 40)
         from make_grids import write_vdb
+
         from volpath.grids import read_vol
 
         data, _ = read_vol(os.path.join(HERE, "scenes", "hetero_cube.vol"))

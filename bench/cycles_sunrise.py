@@ -34,6 +34,7 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 from publish import publish  # noqa: E402  (bench/)
+
 TARGET = 0.02
 REF_SPP = 1024
 LADDER = (16, 64, 256)
@@ -68,7 +69,11 @@ def render_cycles(bpy, volpath, scene, frame, tmp, spp, seed, denoise=False):
     c.device, c.samples, c.seed = "CPU", spp, seed
     c.use_denoising, c.use_adaptive_sampling = denoise, False
     if denoise:
-        c.denoiser, c.denoising_input_passes, c.denoising_prefilter = "OPENIMAGEDENOISE", "RGB_ALBEDO_NORMAL", "ACCURATE"
+        c.denoiser, c.denoising_input_passes, c.denoising_prefilter = (
+            "OPENIMAGEDENOISE",
+            "RGB_ALBEDO_NORMAL",
+            "ACCURATE",
+        )
     c.volume_bounces = 16  # Volpath's paths are unlimited; Cycles' default is single scattering
     scene.render.threads_mode, scene.render.threads = "FIXED", THREADS
     scene.frame_set(frame)
@@ -112,8 +117,8 @@ def main():
 
     import addon
     import volpath
-    from pipeline import video
     from addon.export.animation import export_animation
+    from pipeline import video
     from volpath.frames import render_frame
 
     if args.sky:
@@ -132,8 +137,16 @@ def main():
         def volpath_render(setting, seed, target_error=False, denoise=False):
             spp, target = (REF_SPP, setting) if target_error else (setting, None)
             start = time.perf_counter()
-            image, _ = render_frame(animation, args.frame, spp, tracer="null_scattering", seed=seed, threads=THREADS,
-                                    target_error=target, denoise=denoise)
+            image, _ = render_frame(
+                animation,
+                args.frame,
+                spp,
+                tracer="null_scattering",
+                seed=seed,
+                threads=THREADS,
+                target_error=target,
+                denoise=denoise,
+            )
             return image, time.perf_counter() - start
 
         def cycles_render(spp, seed, denoise=False):
@@ -149,7 +162,9 @@ def main():
             points = []
             for setting in ladder:
                 image, seconds = fn(setting, 7, **kw)
-                points.append((seconds, float(np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2))), setting))
+                points.append(
+                    (seconds, float(np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2))), setting)
+                )
             rows[name] = (time_to(points), points, kw)
     table, best = [], {}
     cycles = results["Cycles 5.0"][2]
@@ -162,37 +177,50 @@ def main():
                 best[key] = min(best.get(key, np.inf), ratio)
             unit = (lambda x: f"target {x}") if "target_error" in kw else (lambda x: f"{x} spp")
             ladder = "; ".join(f"{unit(x)}: {s:.2f} s, {e:.4f}" for s, e, x in points)
-            table.append(f"| {name} | {'not reached' if t is None else f'{t:.2f} s'} | "
-                         f"{'–' if ratio is None else f'{ratio:.2f}x'} ({pair}) | {'–' if np.isnan(slope) else f't^{slope:.2f}'} | {ladder} |")
-    section = (f"\n## Sunrise frame: Volpath against Cycles (issues #7, #33; `bench/cycles_sunrise.py`)\n\n"
-               f"Frame {args.frame} of the default sunrise at {args.res}, {THREADS} threads, each renderer "
-               f"against its own {REF_SPP}-spp reference (their skies differ: Cycles' Sky Texture is a "
-               "precomputed map with an undimmed sun lamp, Volpath traces the atmosphere). Time per frame "
-               "(Volpath's is a pipeline worker's, which keeps its scene from frame to frame: "
-               f"`bench/frame_reuse.py` measures what that leaves besides the samples) to an RMSE of {TARGET} "
-               "in display units (tone-mapped as "
-               "the video is), interpolated in log-log over each row's ladder; denoised rows against the other "
-               "renderer's denoised row, the others against plain Cycles.\n\n"
-               "| renderer | seconds per frame | time / Cycles | error vs time | ladder (setting: seconds, RMSE) |\n"
-               "|---|---|---|---|---|\n" + "\n".join(table) + "\n")
-    section += (f"\nReading: without denoising on either side Volpath's best needs {best.get('plain', np.nan):.2f}x "
-                f"Cycles' time per frame (issue #33's target: 0.5x); with denoising on both sides "
-                f"{best.get('denoised', np.nan):.2f}x. Cycles' sky is a radiance map precomputed once, so only "
-                "the fog and the surfaces are path traced, while Volpath traces every sky path through the "
-                "atmosphere; Cycles' time at low spp is mostly its fixed cost (scene sync).\n")
+            table.append(
+                f"| {name} | {'not reached' if t is None else f'{t:.2f} s'} | "
+                f"{'–' if ratio is None else f'{ratio:.2f}x'} ({pair}) | {'–' if np.isnan(slope) else f't^{slope:.2f}'} | {ladder} |"
+            )
+    section = (
+        f"\n## Sunrise frame: Volpath against Cycles (issues #7, #33; `bench/cycles_sunrise.py`)\n\n"
+        f"Frame {args.frame} of the default sunrise at {args.res}, {THREADS} threads, each renderer "
+        f"against its own {REF_SPP}-spp reference (their skies differ: Cycles' Sky Texture is a "
+        "precomputed map with an undimmed sun lamp, Volpath traces the atmosphere). Time per frame "
+        "(Volpath's is a pipeline worker's, which keeps its scene from frame to frame: "
+        f"`bench/frame_reuse.py` measures what that leaves besides the samples) to an RMSE of {TARGET} "
+        "in display units (tone-mapped as "
+        "the video is), interpolated in log-log over each row's ladder; denoised rows against the other "
+        "renderer's denoised row, the others against plain Cycles.\n\n"
+        "| renderer | seconds per frame | time / Cycles | error vs time | ladder (setting: seconds, RMSE) |\n"
+        "|---|---|---|---|---|\n" + "\n".join(table) + "\n"
+    )
+    section += (
+        f"\nReading: without denoising on either side Volpath's best needs {best.get('plain', np.nan):.2f}x "
+        f"Cycles' time per frame (issue #33's target: 0.5x); with denoising on both sides "
+        f"{best.get('denoised', np.nan):.2f}x. Cycles' sky is a radiance map precomputed once, so only "
+        "the fog and the surfaces are path traced, while Volpath traces every sky path through the "
+        "atmosphere; Cycles' time at low spp is mostly its fixed cost (scene sync).\n"
+    )
     publish(section, args.append)
 
 
 def VARIANTS(volpath_render, cycles_render):
     """(row, renderer, render(setting, seed, **kw), ladder, kw): fixed spp, rendering to a
     target error, and denoising, for both renderers where they have it."""
-    return (("Volpath", "Volpath", volpath_render, LADDER, {}),
-            ("Volpath, target error", "Volpath", volpath_render, (0.04, 0.02, 0.01), {"target_error": True}),
-            ("Volpath, denoised", "Volpath", volpath_render, (4, 16, 64), {"denoise": True}),
-            ("Volpath, target error, denoised", "Volpath", volpath_render, (0.08, 0.04, 0.02),
-             {"target_error": True, "denoise": True}),
-            ("Cycles 5.0", "Cycles 5.0", cycles_render, LADDER, {}),
-            ("Cycles 5.0, OIDN", "Cycles 5.0", cycles_render, (1, 4, 16), {"denoise": True}))
+    return (
+        ("Volpath", "Volpath", volpath_render, LADDER, {}),
+        ("Volpath, target error", "Volpath", volpath_render, (0.04, 0.02, 0.01), {"target_error": True}),
+        ("Volpath, denoised", "Volpath", volpath_render, (4, 16, 64), {"denoise": True}),
+        (
+            "Volpath, target error, denoised",
+            "Volpath",
+            volpath_render,
+            (0.08, 0.04, 0.02),
+            {"target_error": True, "denoise": True},
+        ),
+        ("Cycles 5.0", "Cycles 5.0", cycles_render, LADDER, {}),
+        ("Cycles 5.0, OIDN", "Cycles 5.0", cycles_render, (1, 4, 16), {"denoise": True}),
+    )
 
 
 def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):
@@ -201,6 +229,7 @@ def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):
     scene.render.resolution_percentage = 100
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
+
         def volpath_render(flight):
             scene.volpath.atmosphere_free_flight = flight  # the World panel's Free Flight
             animation = os.path.join(tmp, flight)
@@ -208,17 +237,22 @@ def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):
 
             def render(spp, seed):
                 start = time.perf_counter()
-                image, meta = render_frame(animation, args.frame, spp, tracer="null_scattering", seed=seed,
-                                           threads=THREADS)
+                image, meta = render_frame(
+                    animation, args.frame, spp, tracer="null_scattering", seed=seed, threads=THREADS
+                )
                 total = time.perf_counter() - start
                 return image, total, total - meta["render_seconds"]  # the scene's load, once per frame
+
             return render
 
         def cycles_render(spp, seed):
             return (*render_cycles(bpy, volpath, scene, args.frame, tmp, spp, seed), 0.0)
 
-        renderers = (("Volpath, guided free flight", volpath_render("guided")),
-                     ("Volpath, delta tracking", volpath_render("tracking")), ("Cycles 5.0", cycles_render))
+        renderers = (
+            ("Volpath, guided free flight", volpath_render("guided")),
+            ("Volpath, delta tracking", volpath_render("tracking")),
+            ("Cycles 5.0", cycles_render),
+        )
         for name, fn in renderers:
             fn(4, 99)  # warm-up: kernels, BVH, caches
             points = []
@@ -228,8 +262,11 @@ def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):
                 exposure = video.auto_exposure([a], [0])[0]
                 display = float(np.sqrt(np.mean((video.display(a, exposure) - video.display(b, exposure)) ** 2) / 2))
                 linear = float(np.sqrt(np.mean((a - b) ** 2) / 2) / np.mean((a + b) / 2))
-                points.append((spp, (ta + tb) / 2, display, linear, video.display((a + b) / 2, exposure), (la + lb) / 2))
+                points.append(
+                    (spp, (ta + tb) / 2, display, linear, video.display((a + b) / 2, exposure), (la + lb) / 2)
+                )
             results[name] = points
+
     def time_to(t16, e16, t64, e64, target, load):
         """(seconds, exact): a render already at the target bounds the time from above; else
         the 64-spp render's time scaled as error ~ time^-1/2, the scene's load counted once."""
@@ -246,16 +283,31 @@ def sky_main(args, scene, video, volpath, export_animation, render_frame, bpy):
     for name, points in results.items():
         (_, t16, d16, l16, _, _), (_, t64, d64, l64, _, load) = points
         slope = np.log(l64 / l16) / np.log(t64 / t16)
-        rows.append((name, t16, d16, l16, t64, d64, l64, slope, time_to(t16, d16, t64, d64, TARGET, load),
-                     time_to(t16, l16, t64, l64, 0.01, load)))
+        rows.append(
+            (
+                name,
+                t16,
+                d16,
+                l16,
+                t64,
+                d64,
+                l64,
+                slope,
+                time_to(t16, d16, t64, d64, TARGET, load),
+                time_to(t16, l16, t64, l64, 0.01, load),
+            )
+        )
     cycles_t = rows[-1][8][0]
     table = "\n".join(
         f"| {n} | {t16:.2f} s: {d16:.4f}, {100 * l16:.2f} % | {t64:.2f} s: {d64:.4f}, {100 * l64:.2f} % | "
         f"t^{s:.2f} | {shown(td)} ({td[0] / cycles_t:.0f}x) | {shown(tl)} |"
-        for n, t16, d16, l16, t64, d64, l64, s, td, tl in rows)
+        for n, t16, d16, l16, t64, d64, l64, s, td, tl in rows
+    )
     side_by_side = np.concatenate([results["Cycles 5.0"][1][4], results["Volpath, guided free flight"][1][4]], axis=1)
-    video.write_png(os.path.join(ROOT, "docs", "sky_cycles_volpath.png"),
-                    np.round(np.clip(side_by_side, 0, 1) * 255).astype(np.uint8))
+    video.write_png(
+        os.path.join(ROOT, "docs", "sky_cycles_volpath.png"),
+        np.round(np.clip(side_by_side, 0, 1) * 255).astype(np.uint8),
+    )
     guided, tracking = rows[0], rows[1]
     section = f"""
 ## Sunrise sky: Volpath against Cycles' Sky Texture (issue #4; `bench/cycles_sunrise.py --sky`)
@@ -275,7 +327,7 @@ mean extrapolated from 64 spp as error ~ time^-1/2 (the measured exponent is sho
 Reading: the guided free flight with the sky map and its control variates (README, "The
 atmosphere") reaches 1 % of the mean in {guided[9][0]:.0f} s per frame against delta
 tracking's {tracking[9][0]:.0f} s ({tracking[9][0] / guided[9][0]:.1f}x faster); the issue's target, 60 s, is
-{'met' if guided[9][0] <= 60 else f'not met ({guided[9][0] / 60:.1f}x over)'}. Cycles' times are upper bounds: its 16-spp render already
+{"met" if guided[9][0] <= 60 else f"not met ({guided[9][0] / 60:.1f}x over)"}. Cycles' times are upper bounds: its 16-spp render already
 meets both targets, so the ratios against it are lower bounds. What noise remains is the
 models' error (the map's cells and levels, Mie's share estimated from two directions) and
 the light the models leave out. Cycles looks its sky up in a table it

@@ -12,9 +12,9 @@ import bpy
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 from blender_scenes import add_camera, blank_scene  # noqa: E402
+from publish import publish  # noqa: E402  (bench/)
 
 from addon.export import export_scene, write_directory  # noqa: E402
-from publish import publish  # noqa: E402  (bench/)
 
 scene = blank_scene()
 # 708 x 708 quads, smooth shaded: 1,002,528 triangles; a second, flat-shaded instance.

@@ -61,17 +61,21 @@ def main():
                 raise SystemExit(f"frame {frame}: the kept scene's image differs from a fresh load's")
             seconds["cycles"].append(render_cycles(bpy, volpath, scene, frame, tmp, args.spp, frame)[1])
     mean = {k: float(np.mean(v)) for k, v in seconds.items()}
-    rows = [f"| Volpath, scene kept by the worker | {mean['kept']:.2f} s | {mean['kept'] - mean['render']:.2f} s | "
-            f"{mean['kept'] / mean['cycles']:.2f}x |",
-            f"| Volpath, scene loaded every frame | {mean['fresh']:.2f} s | {mean['fresh'] - mean['render']:.2f} s | "
-            f"{mean['fresh'] / mean['cycles']:.2f}x |",
-            f"| Cycles 5.0 (render call) | {mean['cycles']:.2f} s | | 1x |"]
-    publish(f"\n## Per-frame cost of the sunrise (issue #33 item 4; `bench/frame_reuse.py`)\n\n"
-            f"{len(frames)} consecutive frames ({frames[0]}-{frames[-1]}) of the default sunrise at {args.res}, "
-            f"{args.spp} spp, {THREADS} threads, one run on this machine. Kept and fresh frames are the same bits "
-            "(checked). Besides the samples: loading, building and the sky map.\n\n"
-            "| per frame | time | besides the samples | vs Cycles |\n|---|---|---|---|\n" + "\n".join(rows) + "\n",
-            args.append)
+    rows = [
+        f"| Volpath, scene kept by the worker | {mean['kept']:.2f} s | {mean['kept'] - mean['render']:.2f} s | "
+        f"{mean['kept'] / mean['cycles']:.2f}x |",
+        f"| Volpath, scene loaded every frame | {mean['fresh']:.2f} s | {mean['fresh'] - mean['render']:.2f} s | "
+        f"{mean['fresh'] / mean['cycles']:.2f}x |",
+        f"| Cycles 5.0 (render call) | {mean['cycles']:.2f} s | | 1x |",
+    ]
+    publish(
+        f"\n## Per-frame cost of the sunrise (issue #33 item 4; `bench/frame_reuse.py`)\n\n"
+        f"{len(frames)} consecutive frames ({frames[0]}-{frames[-1]}) of the default sunrise at {args.res}, "
+        f"{args.spp} spp, {THREADS} threads, one run on this machine. Kept and fresh frames are the same bits "
+        "(checked). Besides the samples: loading, building and the sky map.\n\n"
+        "| per frame | time | besides the samples | vs Cycles |\n|---|---|---|---|\n" + "\n".join(rows) + "\n",
+        args.append,
+    )
 
 
 if __name__ == "__main__":

@@ -34,10 +34,10 @@ def cumulus_field(res, seed=7):
         r = rng.uniform(0.03, 0.08)
         lo = np.maximum(((c - r) * res).astype(int), 0)
         hi = np.minimum(((c + r) * res).astype(int) + 1, res)
-        x, y, z = axis[lo[0]:hi[0]], axis[lo[1]:hi[1]], axis[lo[2]:hi[2]]
-        q = ((x[None, None, :] - c[0]) ** 2 + (y[None, :, None] - c[1]) ** 2 + (z[:, None, None] - c[2]) ** 2) / r ** 2
+        x, y, z = axis[lo[0] : hi[0]], axis[lo[1] : hi[1]], axis[lo[2] : hi[2]]
+        q = ((x[None, None, :] - c[0]) ** 2 + (y[None, :, None] - c[1]) ** 2 + (z[:, None, None] - c[2]) ** 2) / r**2
         puff = np.clip(1 - q, 0, None) * 150.0  # sigma_t up to 150 per unit at a puff's centre
-        view = d[lo[2]:hi[2], lo[1]:hi[1], lo[0]:hi[0]]
+        view = d[lo[2] : hi[2], lo[1] : hi[1], lo[0] : hi[0]]
         np.maximum(view, puff, out=view)
     return d
 

@@ -42,22 +42,32 @@ def main():
         times = {}
         for label, kw in (("local pool, 2 processes", dict(workers=2, threads=1)),):
             start = time.perf_counter()
-            Run(animation, os.path.join(tmp, "local"), frames, Options(spp=args.spp, **kw), progress=lambda *a: None).render()
+            Run(
+                animation, os.path.join(tmp, "local"), frames, Options(spp=args.spp, **kw), progress=lambda *a: None
+            ).render()
             times[label] = time.perf_counter() - start
         for n in (1, 2):
             with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
                 start = time.perf_counter()
-                Run(animation, os.path.join(tmp, f"dask{n}"), frames,
-                    Options(spp=args.spp, scheduler=cluster.scheduler_address, threads=1), progress=lambda *a: None).render()
+                Run(
+                    animation,
+                    os.path.join(tmp, f"dask{n}"),
+                    frames,
+                    Options(spp=args.spp, scheduler=cluster.scheduler_address, threads=1),
+                    progress=lambda *a: None,
+                ).render()
                 times[f"Dask, {n} worker{'s' if n > 1 else ''} x 1 thread"] = time.perf_counter() - start
     base = times["Dask, 1 worker x 1 thread"]
     for label, t in times.items():
         rows.append(f"| {label} | {len(frames)} | {t:.1f} s | {3600 * len(frames) / t:.0f} | {base / t:.2f}x |")
-    section = (f"\n## Sunrise pipeline throughput (issue #7; `bench/pipeline_throughput.py`)\n\n"
-               f"{len(frames)} frames of the default sunrise at {args.res}, {args.spp} spp, one run on this machine "
-               f"({os.cpu_count()} cores). Target: 2 Dask workers at least 1.8x one.\n\n"
-               "| how | frames | wall time | frames per hour | vs 1 Dask worker |\n|---|---|---|---|---|\n"
-               + "\n".join(rows) + "\n")
+    section = (
+        f"\n## Sunrise pipeline throughput (issue #7; `bench/pipeline_throughput.py`)\n\n"
+        f"{len(frames)} frames of the default sunrise at {args.res}, {args.spp} spp, one run on this machine "
+        f"({os.cpu_count()} cores). Target: 2 Dask workers at least 1.8x one.\n\n"
+        "| how | frames | wall time | frames per hour | vs 1 Dask worker |\n|---|---|---|---|---|\n"
+        + "\n".join(rows)
+        + "\n"
+    )
     publish(section, args.append)
 
 

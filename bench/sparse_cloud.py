@@ -27,7 +27,6 @@ from publish import publish  # noqa: E402
 
 import volpath  # noqa: E402
 
-
 MEMORY_CHILD = """
 import os, sys, volpath
 def rss():
@@ -43,13 +42,16 @@ def memory_section(tmp):
     active = np.count_nonzero(cloud) / cloud.size
     write_vdb(os.path.join(tmp, "cloud.vdb"), cloud, voxel_size=1 / 512)
     del cloud
-    out = subprocess.run([sys.executable, "-c", MEMORY_CHILD, os.path.join(tmp, "cloud.vdb")], capture_output=True,
-                         text=True, check=True).stdout.split()
+    out = subprocess.run(
+        [sys.executable, "-c", MEMORY_CHILD, os.path.join(tmp, "cloud.vdb")], capture_output=True, text=True, check=True
+    ).stdout.split()
     rss, nbytes, box = (int(v) for v in out)
-    full = 512 ** 3 * 4
-    return (f"| 512³ cumulus field, {100 * active:.1f} % of voxels active | {rss / 2**20:.0f} MiB "
-            f"(bricks: {nbytes / 2**20:.0f} MiB) | {full / 2**20:.0f} MiB: {rss / full:.1%} | "
-            f"{box / 2**20:.0f} MiB: {rss / box:.1%} | ≤ 25 % |")
+    full = 512**3 * 4
+    return (
+        f"| 512³ cumulus field, {100 * active:.1f} % of voxels active | {rss / 2**20:.0f} MiB "
+        f"(bricks: {nbytes / 2**20:.0f} MiB) | {full / 2**20:.0f} MiB: {rss / full:.1%} | "
+        f"{box / 2**20:.0f} MiB: {rss / box:.1%} | ≤ 25 % |"
+    )
 
 
 def scene_xml(majorant_res, spp):

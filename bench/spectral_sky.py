@@ -29,7 +29,7 @@ def render(mode, spp, seed):
 
 def main():
     ref, ref_time = render("spectral", 512, seed=99)
-    norm = np.sqrt(np.mean(ref ** 2))
+    norm = np.sqrt(np.mean(ref**2))
     rows = []
     for mode in ("rgb", "spectral"):
         for spp in (16, 64, 256):
@@ -38,8 +38,10 @@ def main():
     rgb_converged = rows[2][4]
     colour = ref.mean(axis=(0, 1))
     chroma = lambda c: c / c.sum()  # noqa: E731
-    lines = [f"| {m} | {spp} | {s:.2f} s | {100 * e:.1f} % | {', '.join(f'{v:.4f}' for v in c)} |"
-             for m, spp, s, e, c in rows]
+    lines = [
+        f"| {m} | {spp} | {s:.2f} s | {100 * e:.1f} % | {', '.join(f'{v:.4f}' for v in c)} |"
+        for m, spp, s, e, c in rows
+    ]
     table = "\n".join(lines)
     section = f"""
 ## RGB and spectral sky (issue #4; `bench/spectral_sky.py`)
@@ -53,8 +55,8 @@ Reference: spectral mode (4 passes of 3 wavelengths) at 512 spp
 |---|---|---|---|---|
 {table}
 
-Reference mean colour: {', '.join(f'{v:.4f}' for v in colour)}; chromaticity (r, g, b shares)
-spectral {', '.join(f'{v:.3f}' for v in chroma(colour))} against RGB {', '.join(f'{v:.3f}' for v in chroma(rgb_converged))}.
+Reference mean colour: {", ".join(f"{v:.4f}" for v in colour)}; chromaticity (r, g, b shares)
+spectral {", ".join(f"{v:.3f}" for v in chroma(colour))} against RGB {", ".join(f"{v:.3f}" for v in chroma(rgb_converged))}.
 RGB mode evaluates the air at 680 / 550 / 440 nm, where the sRGB red primary gathers light
 from around 600 nm (Rayleigh scattering 1.6x stronger there): its error against the spectral
 reference levels off at the colour bias, which no number of samples removes. Spectral mode

@@ -47,8 +47,8 @@ def main():
 
     import addon
     import volpath
-    from pipeline import video
     from addon.export.animation import export_animation
+    from pipeline import video
     from volpath.frames import _load, frame_dictionary
 
     addon.register()
@@ -82,29 +82,45 @@ def main():
         for frame in frames:
             ref, ref_seconds = render(frame, "spectral", REF_SPP, 12345)
             exposure = video.auto_exposure([ref], [0])[0]
-            shown, norm = video.display(ref, exposure), np.sqrt(np.mean(ref ** 2))
+            shown, norm = video.display(ref, exposure), np.sqrt(np.mean(ref**2))
             for mode in ("rgb", "spectral"):
                 for spp in LADDER:
                     image, seconds = render(frame, mode, spp, spp)
-                    rows.append((frame, mode, spp, seconds, np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2)),
-                                 np.sqrt(np.mean((image - ref) ** 2)) / norm))
+                    rows.append(
+                        (
+                            frame,
+                            mode,
+                            spp,
+                            seconds,
+                            np.sqrt(np.mean((video.display(image, exposure) - shown) ** 2)),
+                            np.sqrt(np.mean((image - ref) ** 2)) / norm,
+                        )
+                    )
                     print(*rows[-1], flush=True)
                     if mode == "rgb" and spp == LADDER[-1]:
-                        colours.append((frame, ref_seconds, chroma(ref.mean(axis=(0, 1))), chroma(image.mean(axis=(0, 1)))))
+                        colours.append(
+                            (frame, ref_seconds, chroma(ref.mean(axis=(0, 1))), chroma(image.mean(axis=(0, 1))))
+                        )
 
-    lines = ["## RGB and spectral over the sunrise (issue #4; `bench/spectral_sunrise.py`)", "",
-             f"Frames {', '.join(map(str, frames))} of the default sunrise at {args.res}, {THREADS} threads, null-scattering "
-             f"tracer; reference per frame: spectral mode at {REF_SPP} spp. In spectral mode the samples are shared out over "
-             "the four wavelength passes, so equal spp costs about equal time. Display RMSE: the tone-mapped frame as the "
-             "video shows it (0..1); relative RMSE: linear, over the reference's RMS.", "",
-             "| frame | mode | spp | seconds | display RMSE | relative RMSE |", "|---|---|---|---|---|---|"]
+    lines = [
+        "## RGB and spectral over the sunrise (issue #4; `bench/spectral_sunrise.py`)",
+        "",
+        f"Frames {', '.join(map(str, frames))} of the default sunrise at {args.res}, {THREADS} threads, null-scattering "
+        f"tracer; reference per frame: spectral mode at {REF_SPP} spp. In spectral mode the samples are shared out over "
+        "the four wavelength passes, so equal spp costs about equal time. Display RMSE: the tone-mapped frame as the "
+        "video shows it (0..1); relative RMSE: linear, over the reference's RMS.",
+        "",
+        "| frame | mode | spp | seconds | display RMSE | relative RMSE |",
+        "|---|---|---|---|---|---|",
+    ]
     for frame, mode, spp, seconds, shown_err, rel in rows:
         lines.append(f"| {frame} | {mode} | {spp} | {seconds:.2f} s | {shown_err:.4f} | {100 * rel:.1f} % |")
-    lines += ["", "Mean chromaticity (r, g, b shares) of the reference against RGB mode at "
-              f"{LADDER[-1]} spp:", ""]
+    lines += ["", f"Mean chromaticity (r, g, b shares) of the reference against RGB mode at {LADDER[-1]} spp:", ""]
     for frame, ref_seconds, ref_c, rgb_c in colours:
-        lines.append(f"- frame {frame} (reference {ref_seconds:.0f} s): spectral {', '.join(f'{c:.3f}' for c in ref_c)}; "
-                     f"RGB {', '.join(f'{c:.3f}' for c in rgb_c)}")
+        lines.append(
+            f"- frame {frame} (reference {ref_seconds:.0f} s): spectral {', '.join(f'{c:.3f}' for c in ref_c)}; "
+            f"RGB {', '.join(f'{c:.3f}' for c in rgb_c)}"
+        )
     publish("\n".join(lines) + "\n", args.append)
 
 

@@ -51,7 +51,9 @@ def references(frames, shape):
         os.makedirs(CACHE, exist_ok=True)
         for f in missing:
             for path, seed in zip(paths[f], (1001, 2002)):
-                image, _ = render_frame(directory, f, REF_SPP // 2, tracer="null_scattering", seed=seed, threads=THREADS)
+                image, _ = render_frame(
+                    directory, f, REF_SPP // 2, tracer="null_scattering", seed=seed, threads=THREADS
+                )
                 volpath.write_exr(path, image)
     return {f: [volpath.read_exr(p).astype(np.float64) for p in paths[f]] for f in frames}
 
@@ -67,8 +69,10 @@ def main():
     args = ap.parse_args()
     with open(os.path.join(args.out, "summary.json"), encoding="utf-8") as f:
         summary = json.load(f)
-    images = {f: volpath.read_exr(os.path.join(args.out, "frames", f"frame_{f:04d}.exr")).astype(np.float64)
-              for f in args.frames}
+    images = {
+        f: volpath.read_exr(os.path.join(args.out, "frames", f"frame_{f:04d}.exr")).astype(np.float64)
+        for f in args.frames
+    }
     refs = references(args.frames, next(iter(images.values())).shape[:2])
     rows = []
     for f in args.frames:
@@ -80,19 +84,26 @@ def main():
         raw = np.mean((video.display(images[f], exposure) - shown) ** 2)
         s = summary["frames"][str(f)]
         estimate = f"{s['error']:.4f}" if "error" in s else "–"
-        rows.append(f"| {f} | {np.sqrt(raw):.4f} | {np.sqrt(max(raw - noise, 0)):.4f} | {np.sqrt(noise):.4f} | "
-                    f"{estimate} | {s.get('spp_mean', s['spp'])} | {s['seconds']:.1f} s |")
+        rows.append(
+            f"| {f} | {np.sqrt(raw):.4f} | {np.sqrt(max(raw - noise, 0)):.4f} | {np.sqrt(noise):.4f} | "
+            f"{estimate} | {s.get('spp_mean', s['spp'])} | {s['seconds']:.1f} s |"
+        )
     o = summary["options"]
-    how = (f"to a display error of {o['target_error']} (at most {o['spp']} spp)" if o.get("target_error")
-           else f"at {o['spp']} spp") + (", denoised" if o.get("denoise") else "")
+    how = (
+        f"to a display error of {o['target_error']} (at most {o['spp']} spp)"
+        if o.get("target_error")
+        else f"at {o['spp']} spp"
+    ) + (", denoised" if o.get("denoise") else "")
     h, w = next(iter(images.values())).shape[:2]
-    section = (f"\n## `make sunrise`'s frames against converged ones (issue #33; `bench/sunrise_quality.py`)\n\n"
-               f"The run in {os.path.relpath(args.out, ROOT)}: {w}x{h}, each frame {how}. References: "
-               f"{REF_SPP} spp as two independent halves; display RMSE raw and net of the reference's noise "
-               "(target: 0.02); the estimate is the renderer's own, before denoising; seconds per frame on "
-               "one worker thread (the pool runs two).\n\n"
-               "| frame | display RMSE | net of the reference's noise | reference's noise | estimated (noisy) | "
-               "mean spp | seconds |\n|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
+    section = (
+        f"\n## `make sunrise`'s frames against converged ones (issue #33; `bench/sunrise_quality.py`)\n\n"
+        f"The run in {os.path.relpath(args.out, ROOT)}: {w}x{h}, each frame {how}. References: "
+        f"{REF_SPP} spp as two independent halves; display RMSE raw and net of the reference's noise "
+        "(target: 0.02); the estimate is the renderer's own, before denoising; seconds per frame on "
+        "one worker thread (the pool runs two).\n\n"
+        "| frame | display RMSE | net of the reference's noise | reference's noise | estimated (noisy) | "
+        "mean spp | seconds |\n|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+    )
     publish(section, args.append)
 
 

@@ -34,16 +34,16 @@ from . import video
 
 @dataclass
 class Options:
-    spp: int = 16                  # samples per pixel, or the cap with target_error
-    target_error: float = 0.0      # > 0: each frame to this display error (volpath.render's target_error)
-    denoise: bool = False          # Intel Open Image Denoise on each frame (volpath.render's denoise)
+    spp: int = 16  # samples per pixel, or the cap with target_error
+    target_error: float = 0.0  # > 0: each frame to this display error (volpath.render's target_error)
+    denoise: bool = False  # Intel Open Image Denoise on each frame (volpath.render's denoise)
     tracer: str = "auto"
-    workers: int = 0               # local processes (0: one per core)
-    threads: int = 0               # threads per frame (0: cores / workers locally, 1 on Dask)
-    scheduler: str = ""            # Dask distributed scheduler address ("": this machine)
+    workers: int = 0  # local processes (0: one per core)
+    threads: int = 0  # threads per frame (0: cores / workers locally, 1 on Dask)
+    scheduler: str = ""  # Dask distributed scheduler address ("": this machine)
     resume: bool = False
     fps: int = 24
-    exposure: object = 0.0          # stops, or "auto" (video.auto_exposure)
+    exposure: object = 0.0  # stops, or "auto" (video.auto_exposure)
     video_name: str = "sunrise.mp4"
 
     def check(self):
@@ -75,7 +75,9 @@ def valid_frame(path, frame, shape, options):
     if bool(meta.get("denoised", 0)) != options.denoise:
         return False
     if options.target_error:  # EXR metadata holds it as float32
-        same = meta.get("spp_cap") == options.spp and np.float32(meta.get("target_error", 0)) == np.float32(options.target_error)
+        same = meta.get("spp_cap") == options.spp and np.float32(meta.get("target_error", 0)) == np.float32(
+            options.target_error
+        )
     else:
         same = meta.get("spp") == options.spp and "target_error" not in meta
     return meta.get("frame") == frame and same and image.shape == shape and np.all(np.isfinite(image))
@@ -89,7 +91,7 @@ class Run:
         if not frames:
             raise ValueError("no frames to render")
         self.animation_dir, self.out_dir, self.frames, self.options = animation_dir, out_dir, list(frames), options
-        self.progress = progress          # callable(done, total, status dict) or None for a tqdm bar
+        self.progress = progress  # callable(done, total, status dict) or None for a tqdm bar
         self.cancel = cancel or threading.Event()
         self.status = {}
         self.summary_path = os.path.join(out_dir, "summary.json")
@@ -97,8 +99,11 @@ class Run:
 
     # -- bookkeeping --------------------------------------------------------------------------
     def _write_summary(self, **extra):
-        summary = {"options": asdict(self.options),
-                   "frames": {str(f): self.status[f] for f in self.frames if f in self.status}, **extra}
+        summary = {
+            "options": asdict(self.options),
+            "frames": {str(f): self.status[f] for f in self.frames if f in self.status},
+            **extra,
+        }
         tmp = self.summary_path + ".tmp"
         with open(tmp, "w", encoding="utf-8") as f:
             json.dump(summary, f, indent=1)
@@ -143,8 +148,13 @@ class Run:
         if error is None:
             image, meta = result
             volpath.write_exr(exr_path(self.out_dir, frame), image, metadata=meta)
-            self.status[frame] = {"status": "rendered", "seconds": round(meta["seconds"], 3), "spp": meta["spp"],
-                                  "tracer": meta["tracer"], "attempts": attempt}
+            self.status[frame] = {
+                "status": "rendered",
+                "seconds": round(meta["seconds"], 3),
+                "spp": meta["spp"],
+                "tracer": meta["tracer"],
+                "attempts": attempt,
+            }
             if "error" in meta:  # rendered to a target error: what it achieved, with how many samples
                 self.status[frame].update(error=round(meta["error"], 5), spp_mean=round(meta["spp_mean"], 1))
         elif attempt < 2 and not self.cancel.is_set():
@@ -193,8 +203,9 @@ class Run:
         try:
             from distributed import Client, wait
         except ImportError:
-            raise RuntimeError("a Dask scheduler was given but dask.distributed is not installed "
-                               "(pip install distributed)") from None
+            raise RuntimeError(
+                "a Dask scheduler was given but dask.distributed is not installed (pip install distributed)"
+            ) from None
         with Client(self.options.scheduler, timeout="20s") as client:
             # Workers may be other machines: the scene travels as bytes, frames come back as arrays.
             source = client.scatter(pack(self.animation_dir), broadcast=True)
@@ -202,8 +213,12 @@ class Run:
             pending = {}
 
             def submit(frame, attempt):
-                fut = client.submit(render_frame, *self._args(frame, source, threads), pure=False,
-                                    key=f"volpath-frame-{frame}-{attempt}-{time.time_ns()}")
+                fut = client.submit(
+                    render_frame,
+                    *self._args(frame, source, threads),
+                    pure=False,
+                    key=f"volpath-frame-{frame}-{attempt}-{time.time_ns()}",
+                )
                 pending[fut] = (frame, attempt)
 
             for f in todo:
@@ -232,8 +247,11 @@ class Run:
         for name in os.listdir(png_dir):
             os.remove(os.path.join(png_dir, name))
         images = [volpath.read_exr(exr_path(self.out_dir, f)) for f in finished]
-        stops = video.auto_exposure(images, finished) if self.options.exposure == "auto" else \
-            [float(self.options.exposure)] * len(images)
+        stops = (
+            video.auto_exposure(images, finished)
+            if self.options.exposure == "auto"
+            else [float(self.options.exposure)] * len(images)
+        )
         pictures = []
         for i, (image, exposure) in enumerate(zip(images, stops)):
             picture = video.tonemap(image, exposure)
@@ -241,11 +259,15 @@ class Run:
             pictures.append(picture)
         step = max(1, len(pictures) // 24)  # at most about 24 frames on the sheet
         labels = [self._label(f) for f in finished[::step]]
-        video.write_png(os.path.join(self.out_dir, "contact_sheet.png"), video.contact_sheet(pictures[::step], labels=labels))
-        mp4 = video.encode(os.path.join(png_dir, "%05d.png"), os.path.join(self.out_dir, self.options.video_name),
-                           fps=self.options.fps)
-        return self._write_summary(cancelled=self.cancel.is_set(), video=os.path.abspath(mp4),
-                                   video_frames=len(finished))
+        video.write_png(
+            os.path.join(self.out_dir, "contact_sheet.png"), video.contact_sheet(pictures[::step], labels=labels)
+        )
+        mp4 = video.encode(
+            os.path.join(png_dir, "%05d.png"), os.path.join(self.out_dir, self.options.video_name), fps=self.options.fps
+        )
+        return self._write_summary(
+            cancelled=self.cancel.is_set(), video=os.path.abspath(mp4), video_frames=len(finished)
+        )
 
     def _label(self, frame):
         """The contact sheet's words on a frame: its number, the display error it reached

@@ -35,8 +35,12 @@ def write_png(path, rgb):
     def chunk(tag, data):
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
 
-    png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-           + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    png = (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(raw, 6))
+        + chunk(b"IEND", b"")
+    )
     tmp = f"{path}.tmp"
     with open(tmp, "wb") as f:
         f.write(png)
@@ -44,10 +48,21 @@ def write_png(path, rgb):
 
 
 # A 3x5-pixel font for the contact sheet's labels: rows top to bottom, bits left to right.
-_GLYPHS = {"0": (7, 5, 5, 5, 7), "1": (2, 6, 2, 2, 7), "2": (7, 1, 7, 4, 7), "3": (7, 1, 7, 1, 7),
-           "4": (5, 5, 7, 1, 1), "5": (7, 4, 7, 1, 7), "6": (7, 4, 7, 5, 7), "7": (7, 1, 1, 1, 1),
-           "8": (7, 5, 7, 5, 7), "9": (7, 5, 7, 1, 7), ".": (0, 0, 0, 0, 2), "s": (0, 3, 6, 3, 6),
-           " ": (0, 0, 0, 0, 0)}
+_GLYPHS = {
+    "0": (7, 5, 5, 5, 7),
+    "1": (2, 6, 2, 2, 7),
+    "2": (7, 1, 7, 4, 7),
+    "3": (7, 1, 7, 1, 7),
+    "4": (5, 5, 7, 1, 1),
+    "5": (7, 4, 7, 1, 7),
+    "6": (7, 4, 7, 5, 7),
+    "7": (7, 1, 1, 1, 1),
+    "8": (7, 5, 7, 5, 7),
+    "9": (7, 5, 7, 1, 7),
+    ".": (0, 0, 0, 0, 2),
+    "s": (0, 3, 6, 3, 6),
+    " ": (0, 0, 0, 0, 0),
+}
 
 
 def label(picture, text, scale=1):
@@ -73,7 +88,7 @@ def contact_sheet(images, columns=6, labels=None):
         tile = img.copy()
         if labels is not None:
             label(tile, labels[i], scale=max(1, h // 90))
-        sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = tile
+        sheet[r * h : (r + 1) * h, c * w : (c + 1) * w] = tile
     return sheet
 
 
@@ -92,10 +107,28 @@ def ffmpeg():
 def encode(png_pattern, output, fps=24, crf=18):
     """PNGs named by a printf pattern numbered from 0 -> H.264 yuv420p MP4 (atomic)."""
     tmp = output + ".tmp.mp4"
-    cmd = [ffmpeg(), "-y", "-loglevel", "error", "-framerate", str(fps), "-i", png_pattern,
-           "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", str(crf),
-           # yuv420p needs even sizes
-           "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-movflags", "+faststart", tmp]
+    cmd = [
+        ffmpeg(),
+        "-y",
+        "-loglevel",
+        "error",
+        "-framerate",
+        str(fps),
+        "-i",
+        png_pattern,
+        "-c:v",
+        "libx264",
+        "-pix_fmt",
+        "yuv420p",
+        "-crf",
+        str(crf),
+        # yuv420p needs even sizes
+        "-vf",
+        "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+        "-movflags",
+        "+faststart",
+        tmp,
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         if os.path.exists(tmp):
@@ -107,8 +140,9 @@ def encode(png_pattern, output, fps=24, crf=18):
 
 def count_frames(path):
     """Frames in a video, counted by decoding it with ffmpeg (as ffprobe -count_frames)."""
-    r = subprocess.run([ffmpeg(), "-nostdin", "-i", path, "-map", "0:v:0", "-f", "null", "-"],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [ffmpeg(), "-nostdin", "-i", path, "-map", "0:v:0", "-f", "null", "-"], capture_output=True, text=True
+    )
     if r.returncode != 0:
         raise RuntimeError(f"ffmpeg could not read {path}: {r.stderr.strip()[-500:]}")
     counts = [line for line in r.stderr.replace("\r", "\n").splitlines() if line.startswith("frame=")]

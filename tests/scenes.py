@@ -17,7 +17,7 @@ def camera(res=16, fov=40, origin="0, 0, 5", target="0, 0, 0", spp=16, medium=No
 def scene(*parts, max_depth=-1):
     return f"""<scene version="3.0.0">
     <integrator type="volpath"><integer name="max_depth" value="{max_depth}"/></integrator>
-    {''.join(parts)}
+    {"".join(parts)}
 </scene>"""
 
 

@@ -10,8 +10,8 @@ from . import __version__
 from .adaptive import describe
 from .errors import SceneError
 from .exr import write_exr
-from .render import render
 from .plugins.integrators import TRACERS
+from .render import render
 from .scene import load_file
 
 
@@ -36,8 +36,13 @@ def _render(args, parser):
     spp = args.spp or (None if target else scene.spp)
     tracer = args.tracer or scene.tracer
     what = f"up to {spp or 'the cap of'} spp, target error {100 * target:g} %" if target else f"{spp} spp"
-    bar = tqdm(total=100, unit="%", desc=f"{scene.width}x{scene.height} {what} {tracer}", disable=args.quiet,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}")
+    bar = tqdm(
+        total=100,
+        unit="%",
+        desc=f"{scene.width}x{scene.height} {what} {tracer}",
+        disable=args.quiet,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}{postfix}",
+    )
 
     def progress(fraction):
         bar.n = round(100 * fraction, 1)
@@ -49,8 +54,18 @@ def _render(args, parser):
 
     start = time.perf_counter()
     try:
-        image = render(scene, spp=spp, seed=args.seed, threads=args.threads, tracer=tracer, progress=progress,
-                       max_depth=args.max_depth, target_error=target, status=status, denoise=args.denoise)
+        image = render(
+            scene,
+            spp=spp,
+            seed=args.seed,
+            threads=args.threads,
+            tracer=tracer,
+            progress=progress,
+            max_depth=args.max_depth,
+            target_error=target,
+            status=status,
+            denoise=args.denoise,
+        )
     finally:
         bar.close()
     seconds = time.perf_counter() - start
@@ -59,53 +74,89 @@ def _render(args, parser):
     if stats.get("auto"):
         tracer = stats["tracer"]
         print(f"auto: {tracer}: " + "; ".join(stats["auto"]["reasons"]))
-    metadata = {"volpath_version": __version__, "spp": spp, "tracer": tracer, "seed": args.seed, "seconds": seconds,
-                "nonfinite_samples": stats["nonfinite_samples"], "negative_samples": stats["negative_samples"],
-                "denoised": int(args.denoise)}
+    metadata = {
+        "volpath_version": __version__,
+        "spp": spp,
+        "tracer": tracer,
+        "seed": args.seed,
+        "seconds": seconds,
+        "nonfinite_samples": stats["nonfinite_samples"],
+        "negative_samples": stats["negative_samples"],
+        "denoised": int(args.denoise),
+    }
     samples = f"{spp} spp"
     if target:
         metadata.update(target_error=target, error=stats["error"], spp_mean=stats["spp_mean"])
-        samples = (f"error {100 * stats['error']:.2g} % (target {100 * target:g} %), {stats['spp_min']}-{spp} spp "
-                   f"(mean {stats['spp_mean']:.0f})")
+        samples = (
+            f"error {100 * stats['error']:.2g} % (target {100 * target:g} %), {stats['spp_min']}-{spp} spp "
+            f"(mean {stats['spp_mean']:.0f})"
+        )
     write_exr(out, image, metadata=metadata)
     samples += ", denoised" if args.denoise else ""
-    print(f"{out}: {scene.width}x{scene.height}, {samples}, tracer {tracer}, {seconds:.2f} s, "
-          f"{stats['nonfinite_samples']} non-finite samples discarded, {stats['negative_samples']} negative "
-          f"samples clamped ({stats['clamped_share']:.1e} of the light)")
+    print(
+        f"{out}: {scene.width}x{scene.height}, {samples}, tracer {tracer}, {seconds:.2f} s, "
+        f"{stats['nonfinite_samples']} non-finite samples discarded, {stats['negative_samples']} negative "
+        f"samples clamped ({stats['clamped_share']:.1e} of the light)"
+    )
 
 
 def _info(args, parser):
     scene = load_file(args.scene, **_params(args.define, parser))
     s = scene.summary
     if args.json:
-        print(json.dumps({"settings": {"spp": scene.spp, "tracer": scene.tracer, "max_depth": scene.max_depth,
-                                       "rr_depth": scene.rr_depth}, **s}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "settings": {
+                        "spp": scene.spp,
+                        "tracer": scene.tracer,
+                        "max_depth": scene.max_depth,
+                        "rr_depth": scene.rr_depth,
+                    },
+                    **s,
+                },
+                indent=2,
+            )
+        )
         return
     cam = s["camera"]
     print(f"{args.scene}")
-    print(f"  film      {cam['width']}x{cam['height']}, fov {cam['fov']:.2f} ({cam['fov_axis']}), "
-          f"camera at {', '.join(f'{v:g}' for v in cam['origin'])}"
-          + (f", inside medium {cam['medium']}" if cam["medium"] >= 0 else ""))
+    print(
+        f"  film      {cam['width']}x{cam['height']}, fov {cam['fov']:.2f} ({cam['fov_axis']}), "
+        f"camera at {', '.join(f'{v:g}' for v in cam['origin'])}"
+        + (f", inside medium {cam['medium']}" if cam["medium"] >= 0 else "")
+    )
     print(f"  settings  {scene.spp} spp, tracer {scene.tracer}, max_depth {scene.max_depth}, rr_depth {scene.rr_depth}")
     print(f"  shapes    {len(s['shapes'])}")
     for sh in s["shapes"]:
-        extra = (f"{sh['triangles']} triangles" if "triangles" in sh else
-                 "analytic box" if sh.get("box") else f"radius {sh['radius']:g}")
+        extra = (
+            f"{sh['triangles']} triangles"
+            if "triangles" in sh
+            else "analytic box"
+            if sh.get("box")
+            else f"radius {sh['radius']:g}"
+        )
         print(f"    {sh['type']:<10} {extra}{', emitter' if sh['emitter'] else ''}")
     print(f"  media     {len(s['media'])}")
     for m in s["media"]:
         tau = m.get("optical_thickness")
         tau_text = f", optical thickness {tau[0]:.3g}..{tau[1]:.3g}" if tau else ""
         if m["type"] == "atmosphere":
-            print(f"    [{m['index']}] atmosphere: planet radius {m['planet_radius']:.6g}, height {m['height']:.6g}, "
-                  f"sea-level sigma_t {[float(f'{v:.4g}') for v in m['sigma_t']]}, g {m['g']}, {m['mode']} mode")
+            print(
+                f"    [{m['index']}] atmosphere: planet radius {m['planet_radius']:.6g}, height {m['height']:.6g}, "
+                f"sea-level sigma_t {[float(f'{v:.4g}') for v in m['sigma_t']]}, g {m['g']}, {m['mode']} mode"
+            )
         elif m["type"] == "homogeneous":
-            print(f"    [{m['index']}] homogeneous sigma_t {[round(v, 6) for v in m['sigma_t']]}, "
-                  f"albedo {[round(v, 4) for v in m['albedo']]}, g {m['g']}{tau_text}")
+            print(
+                f"    [{m['index']}] homogeneous sigma_t {[round(v, 6) for v in m['sigma_t']]}, "
+                f"albedo {[round(v, 4) for v in m['albedo']]}, g {m['g']}{tau_text}"
+            )
         else:
             lo, hi = m["sigma_t_range"]
-            print(f"    [{m['index']}] heterogeneous {'x'.join(map(str, m['resolution']))} grid "
-                  f"({m['memory'] / 2**20:.1f} MiB resident), sigma_t {lo:.3g}..{hi:.3g}, g {m['g']}{tau_text}")
+            print(
+                f"    [{m['index']}] heterogeneous {'x'.join(map(str, m['resolution']))} grid "
+                f"({m['memory'] / 2**20:.1f} MiB resident), sigma_t {lo:.3g}..{hi:.3g}, g {m['g']}{tau_text}"
+            )
     print(f"  emitters  {len(s['emitters'])}")
     for e in s["emitters"]:
         print(f"    {e['type']}")
@@ -118,13 +169,21 @@ def main(argv=None):
     r = sub.add_parser("render", help="render a scene to an EXR file")
     r.add_argument("scene")
     r.add_argument("-o", "--output", required=True, help="output .exr file")
-    r.add_argument("--spp", type=int, help="samples per pixel (default: the scene's; with --target-error the cap, "
-                                           "default 1024)")
-    r.add_argument("--target-error", type=float, metavar="E",
-                   help="render until the displayed image's RMS error is E, in display units 0..1 "
-                        "(e.g. 0.01; volpath/adaptive.py defines it)")
-    r.add_argument("--denoise", action="store_true", help="denoise with Intel Open Image Denoise (less noise, "
-                                                          "some bias: off by default)")
+    r.add_argument(
+        "--spp", type=int, help="samples per pixel (default: the scene's; with --target-error the cap, default 1024)"
+    )
+    r.add_argument(
+        "--target-error",
+        type=float,
+        metavar="E",
+        help="render until the displayed image's RMS error is E, in display units 0..1 "
+        "(e.g. 0.01; volpath/adaptive.py defines it)",
+    )
+    r.add_argument(
+        "--denoise",
+        action="store_true",
+        help="denoise with Intel Open Image Denoise (less noise, some bias: off by default)",
+    )
     r.add_argument("--tracer", choices=("auto",) + TRACERS, help="default: the scene's (usually auto)")
     r.add_argument("--threads", type=int, help="default: all cores")
     r.add_argument("--seed", type=int, default=0)

@@ -83,7 +83,7 @@ class Adaptive:
 
     def _rms(self, block_error):
         """The image's error from its blocks' (pixel-weighted)."""
-        return float(np.sqrt(np.sum(self.block_pixels * block_error ** 2) / np.sum(self.block_pixels)))
+        return float(np.sqrt(np.sum(self.block_pixels * block_error**2) / np.sum(self.block_pixels)))
 
     def level(self, n):
         """The error E* that the unfinished blocks are sampled to: the image's RMS error is
@@ -154,12 +154,20 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
             done = done_before + fraction * round_samples
             if status is not None:
                 left = None if per_sample is None else per_sample * (total - done)
-                status({"error": state.error, "target": state.target, "spp": done / counts.size,
-                        "seconds": time.perf_counter() - start, "seconds_left": left})
+                status(
+                    {
+                        "error": state.error,
+                        "target": state.target,
+                        "spp": done / counts.size,
+                        "seconds": time.perf_counter() - start,
+                        "seconds_left": left,
+                    }
+                )
             return None if progress is None else progress(done / total)
 
-        _, s = _core.render(native, 2, seed, threads, *tracer_args, report, None, sobol, 0, state.taken, counts,
-                            state.halves, features)
+        _, s = _core.render(
+            native, 2, seed, threads, *tracer_args, report, None, sobol, 0, state.taken, counts, state.halves, features
+        )
         rounds += 1
         state.taken += counts
         stats["seconds"] += s["seconds"]
@@ -177,8 +185,15 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
     if progress is not None and not stats["cancelled"]:
         progress(1.0)
     spp = state.taken
-    stats.update(error=state.error, target_error=state.target, rounds=rounds, spp_mean=float(spp.mean()),
-                 spp_min=int(spp.min()), spp_max=int(spp.max()), spp_cap=state.max_spp)
+    stats.update(
+        error=state.error,
+        target_error=state.target,
+        rounds=rounds,
+        spp_mean=float(spp.mean()),
+        spp_min=int(spp.min()),
+        spp_max=int(spp.max()),
+        spp_cap=state.max_spp,
+    )
     image = state.image()
     if out is not None:
         out[...] = image

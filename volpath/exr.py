@@ -6,8 +6,17 @@ import numpy as np
 import OpenEXR
 
 # Header attributes that OpenEXR itself manages; everything else is user metadata.
-_STANDARD = {"channels", "compression", "dataWindow", "displayWindow", "lineOrder",
-             "pixelAspectRatio", "screenWindowCenter", "screenWindowWidth", "type"}
+_STANDARD = {
+    "channels",
+    "compression",
+    "dataWindow",
+    "displayWindow",
+    "lineOrder",
+    "pixelAspectRatio",
+    "screenWindowCenter",
+    "screenWindowWidth",
+    "type",
+}
 
 
 def _metadata_value(key, value):

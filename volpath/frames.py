@@ -134,17 +134,36 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, tar
     if scene is None or not scene.update(frame_d):
         scene = _scenes[directory] = load_dict(frame_d, base_dir=directory)
     scene.source = f"frame {frame}"
-    image = render(scene, spp=spp, seed=frame if seed is None else seed, threads=threads, tracer=tracer,
-                   target_error=target_error, denoise=denoise)
+    image = render(
+        scene,
+        spp=spp,
+        seed=frame if seed is None else seed,
+        threads=threads,
+        tracer=tracer,
+        target_error=target_error,
+        denoise=denoise,
+    )
     stats = scene.last_render
     sun = next(iter(entry["suns"].values()), None)
-    metadata = {"frame": int(frame), "spp": int(stats["spp"]), "tracer": stats["tracer"], "seed": int(stats["seed"]),
-                "seconds": float(time.perf_counter() - start), "render_seconds": float(stats["seconds"]),
-                "nonfinite_samples": int(stats["nonfinite_samples"]), "negative_samples": int(stats["negative_samples"]),
-                "volpath_version": __version__, "denoised": int(bool(denoise))}
+    metadata = {
+        "frame": int(frame),
+        "spp": int(stats["spp"]),
+        "tracer": stats["tracer"],
+        "seed": int(stats["seed"]),
+        "seconds": float(time.perf_counter() - start),
+        "render_seconds": float(stats["seconds"]),
+        "nonfinite_samples": int(stats["nonfinite_samples"]),
+        "negative_samples": int(stats["negative_samples"]),
+        "volpath_version": __version__,
+        "denoised": int(bool(denoise)),
+    }
     if target_error is not None:
-        metadata.update(target_error=float(target_error), error=float(stats["error"]), spp_cap=int(spp),
-                        spp_mean=float(stats["spp_mean"]))
+        metadata.update(
+            target_error=float(target_error),
+            error=float(stats["error"]),
+            spp_cap=int(spp),
+            spp_mean=float(stats["spp_mean"]),
+        )
     if sun is not None:
         metadata["sun_direction"] = np.asarray(sun, dtype=np.float64)
     return image, metadata

@@ -32,8 +32,10 @@ def read_vol(path):
         if encoding != 1:
             raise SceneError(f"{path}: .vol encoding {encoding} is not supported (expected 1, float32)")
         if min(xres, yres, zres) < 1 or channels not in (1, 3):
-            raise SceneError(f"{path}: bad grid size {xres}x{yres}x{zres} with {channels} channels "
-                             "(expected positive sizes and 1 or 3 channels)")
+            raise SceneError(
+                f"{path}: bad grid size {xres}x{yres}x{zres} with {channels} channels "
+                "(expected positive sizes and 1 or 3 channels)"
+            )
         count = xres * yres * zres * channels
         if count > MAX_VOXEL_VALUES:
             raise SceneError(f"{path}: grid of {count} values is larger than the limit of {MAX_VOXEL_VALUES}")

@@ -76,9 +76,24 @@ def load_obj(path):
     return _check(path, positions, np.array(faces, dtype=np.int64).reshape(-1, 3), normals)
 
 
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
+_PLY_TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
 
 
 def load_ply(path):
@@ -122,10 +137,13 @@ def load_ply(path):
                 row = {}
                 for name, t, _a, _b in el["props"]:
                     if t == "list":
-                        k = int(tokens[pos]); pos += 1
-                        row[name] = [int(x) for x in tokens[pos:pos + k]]; pos += k
+                        k = int(tokens[pos])
+                        pos += 1
+                        row[name] = [int(x) for x in tokens[pos : pos + k]]
+                        pos += k
                     else:
-                        row[name] = float(tokens[pos]); pos += 1
+                        row[name] = float(tokens[pos])
+                        pos += 1
                 rows.append(row)
             if el["name"] == "vertex":
                 positions = np.array([[r["x"], r["y"], r["z"]] for r in rows])
@@ -186,13 +204,17 @@ def _binary_lists(buf, pos, el, order):
     if pos + dt.itemsize * count <= len(buf):
         arr = np.frombuffer(buf, dtype=dt, count=count, offset=pos)
         if all(np.all(arr[name + "#"] == dt[name].shape[0]) for name, t, _, _ in props if t == "list"):
-            return {name: arr[name].astype(np.int64) for name, t, _, _ in props if t == "list"}, pos + dt.itemsize * count
+            return {
+                name: arr[name].astype(np.int64) for name, t, _, _ in props if t == "list"
+            }, pos + dt.itemsize * count
     lists = {name: [] for name, t, _, _ in props if t == "list"}
     for _ in range(count):
         for name, t, a, b in props:
             if t == "list":
-                k = int(np.frombuffer(buf, order + a, 1, pos)[0]); pos += np.dtype(a).itemsize
-                lists[name].append(np.frombuffer(buf, order + b, k, pos)); pos += k * np.dtype(b).itemsize
+                k = int(np.frombuffer(buf, order + a, 1, pos)[0])
+                pos += np.dtype(a).itemsize
+                lists[name].append(np.frombuffer(buf, order + b, k, pos))
+                pos += k * np.dtype(b).itemsize
             else:
                 pos += np.dtype(t).itemsize
     return lists, pos
@@ -202,8 +224,14 @@ def write_ply(path, positions, triangles, normals=None):
     """Binary little-endian PLY (what the exporter writes)."""
     positions = np.asarray(positions, np.float32)
     triangles = np.asarray(triangles, np.uint32)
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(positions)}",
-              "property float x", "property float y", "property float z"]
+    header = [
+        "ply",
+        "format binary_little_endian 1.0",
+        f"element vertex {len(positions)}",
+        "property float x",
+        "property float y",
+        "property float z",
+    ]
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if normals is not None:
         header += ["property float nx", "property float ny", "property float nz"]
@@ -219,4 +247,3 @@ def write_ply(path, positions, triangles, normals=None):
         f.write(("\n".join(header) + "\n").encode("ascii"))
         f.write(verts.tobytes())
         f.write(faces.tobytes())
-

@@ -13,14 +13,27 @@ from .errors import RenderCancelled
 from .plugins.integrators import TRACERS
 from .spectral import Film
 
-
 SAMPLERS = ("sobol", "independent")
 MAX_SPP = 1024  # the cap of a render to a target error when no spp is given
 
 
-def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, max_depth=None, tolerance=0.01,
-           out=None, sampler="sobol", light_distances=None, target_error=None, exposure=None, status=None,
-           denoise=False):
+def render(
+    scene,
+    spp=None,
+    seed=0,
+    threads=None,
+    tracer=None,
+    progress=None,
+    max_depth=None,
+    tolerance=0.01,
+    out=None,
+    sampler="sobol",
+    light_distances=None,
+    target_error=None,
+    exposure=None,
+    status=None,
+    denoise=False,
+):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``); in spectral
@@ -86,15 +99,24 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
     # Spectral: the samples are shared out over the wavelength passes.
     per_pass = -(-spp // len(scene.passes)) if scene.passes else spp
     spp = per_pass * max(len(scene.passes), 1)
-    args = (per_pass, int(seed), threads, TRACERS.index(tracer), max_depth, scene.rr_depth,
-            scene.max_null_collisions, scene.light_distances if light_distances is None else bool(light_distances))
+    args = (
+        per_pass,
+        int(seed),
+        threads,
+        TRACERS.index(tracer),
+        max_depth,
+        scene.rr_depth,
+        scene.max_null_collisions,
+        scene.light_distances if light_distances is None else bool(light_distances),
+    )
     features = np.zeros((scene.height, scene.width, 2, 3)) if denoise else None
     samples = per_pass
     if target_error is not None:
         if scene.passes:
             raise ValueError("target_error is not available in spectral mode yet: give spp instead")
-        image, stats, samples = render_adaptive(scene.native, args, target_error, spp, exposure, progress, status,
-                                                out, sampler == "sobol", features)
+        image, stats, samples = render_adaptive(
+            scene.native, args, target_error, spp, exposure, progress, status, out, sampler == "sobol", features
+        )
         spp = stats["spp_max"]
     elif scene.passes:
         image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol", features)
@@ -104,8 +126,16 @@ def render(scene, spp=None, seed=0, threads=None, tracer=None, progress=None, ma
         start = time.perf_counter()
         image[...] = oidn(image, features, samples)
         stats["denoise_seconds"] = time.perf_counter() - start
-    stats.update(spp=spp, seed=int(seed), tracer=tracer, max_depth=max_depth, sampler=sampler,
-                 threads=threads or os.cpu_count(), auto=auto, denoised=bool(denoise))
+    stats.update(
+        spp=spp,
+        seed=int(seed),
+        tracer=tracer,
+        max_depth=max_depth,
+        sampler=sampler,
+        threads=threads or os.cpu_count(),
+        auto=auto,
+        denoised=bool(denoise),
+    )
     scene.last_render = stats
     if stats["cancelled"]:
         raise RenderCancelled(image)

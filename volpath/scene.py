@@ -63,8 +63,10 @@ class Scene:
         return self.native.height
 
     def __repr__(self):
-        return (f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
-                f"tracer={self.tracer}, max_depth={self.max_depth}>")
+        return (
+            f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
+            f"tracer={self.tracer}, max_depth={self.max_depth}>"
+        )
 
 
 def load_file(path, **params):

@@ -29,10 +29,34 @@ SUN_TEMPERATURE = 5772.0  # K, the Sun's effective temperature
 # Chappuis band (peak near 600 nm, falling to almost nothing at 400 nm), fitted to the
 # ratios of Bruneton's RGB values, 0.35 : 1 : 0.045 at 680 / 550 / 440 nm. Not a measured
 # table: good to about 20 % between those wavelengths.
-_OZONE_NM = np.array([360, 400, 420, 440, 460, 480, 500, 520, 540, 560, 580, 600, 620, 640, 660, 680, 700,
-                      740, 780, 830], dtype=np.float64)
-_OZONE_REL = np.array([0.0, 0.004, 0.015, 0.045, 0.10, 0.20, 0.34, 0.58, 0.88, 1.12, 1.38, 1.52, 1.30,
-                       0.95, 0.62, 0.36, 0.24, 0.12, 0.06, 0.03])
+_OZONE_NM = np.array(
+    [360, 400, 420, 440, 460, 480, 500, 520, 540, 560, 580, 600, 620, 640, 660, 680, 700, 740, 780, 830],
+    dtype=np.float64,
+)
+_OZONE_REL = np.array(
+    [
+        0.0,
+        0.004,
+        0.015,
+        0.045,
+        0.10,
+        0.20,
+        0.34,
+        0.58,
+        0.88,
+        1.12,
+        1.38,
+        1.52,
+        1.30,
+        0.95,
+        0.62,
+        0.36,
+        0.24,
+        0.12,
+        0.06,
+        0.03,
+    ]
+)
 
 
 def pass_wavelengths(passes):

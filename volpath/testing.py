@@ -39,15 +39,19 @@ def chi2_directions(dirs, pdf, n_samples_valid, n_theta=20, n_phi=40, sub=12, z_
     if z_marginal is not None:
         from scipy.integrate import quad
 
-        pz = np.array([quad(z_marginal, a, b, limit=200, epsabs=1e-12, epsrel=1e-10)[0]
-                       for a, b in zip(z_edges[:-1], z_edges[1:])])
+        pz = np.array(
+            [
+                quad(z_marginal, a, b, limit=200, epsabs=1e-12, epsrel=1e-10)[0]
+                for a, b in zip(z_edges[:-1], z_edges[1:])
+            ]
+        )
         expected = np.repeat(pz[:, None] / n_phi, n_phi, axis=1) * n_samples_valid
         return chi2_pooled(observed.ravel(), expected.ravel())
     # Midpoint quadrature on each bin (each bin has solid angle dz * dphi).
     zc = (np.arange(n_theta * sub) + 0.5) / (n_theta * sub) * 2 - 1
     pc = (np.arange(n_phi * sub) + 0.5) / (n_phi * sub) * 2 * np.pi - np.pi
     Z, P = np.meshgrid(zc, pc, indexing="ij")
-    r = np.sqrt(np.maximum(0, 1 - Z ** 2))
+    r = np.sqrt(np.maximum(0, 1 - Z**2))
     grid = np.stack([r * np.cos(P), r * np.sin(P), Z], axis=-1).reshape(-1, 3)
     density = np.asarray(pdf(grid)).reshape(n_theta * sub, n_phi * sub)
     cell = (2.0 / (n_theta * sub)) * (2 * np.pi / (n_phi * sub))
@@ -93,8 +97,12 @@ def render_batches(render, scene, batches, block=1, spp=None, **kwargs):
     spp = scene.spp if spp is None else spp
     n = max(batches, MIN_BATCHES)
     per_batch = max(1, -(-batches * spp // n))
-    images = np.stack([block_means(np.asarray(render(scene, seed=1000 + i, spp=per_batch, **kwargs), np.float64), block)
-                       for i in range(n)])
+    images = np.stack(
+        [
+            block_means(np.asarray(render(scene, seed=1000 + i, spp=per_batch, **kwargs), np.float64), block)
+            for i in range(n)
+        ]
+    )
     return images.mean(axis=0), images.std(axis=0, ddof=1) / np.sqrt(n)
 
 
@@ -105,4 +113,4 @@ def block_means(image, block):
 
 def max_z(mean_a, se_a, mean_b, se_b, floor=1e-6):
     """Largest |a - b| / sqrt(se_a^2 + se_b^2) over all entries."""
-    return float(np.max(np.abs(mean_a - mean_b) / np.sqrt(se_a ** 2 + se_b ** 2 + floor ** 2)))
+    return float(np.max(np.abs(mean_a - mean_b) / np.sqrt(se_a**2 + se_b**2 + floor**2)))

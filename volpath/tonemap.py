@@ -18,7 +18,7 @@ def _srgb(y):
 
 def display(image, exposure=0.0):
     """Linear radiance -> display values in [0, 1]: scale by 2^exposure, the filmic curve, sRGB."""
-    x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0 ** exposure, 0.0)
+    x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0**exposure, 0.0)
     return _srgb(np.clip(_film(x), 0.0, 1.0))
 
 

@@ -51,16 +51,23 @@ def _run(function, args, what, timeout):
     """_vdb.function(*args) in a child process; a failure raises SceneError(what: why)."""
     module_dir = _module_dir() or os.path.dirname(os.path.abspath(__file__))
     try:
-        r = subprocess.run([sys.executable, "-I", "-S", "-c", _CHILD, module_dir, function, *map(str, args)],
-                           capture_output=True, text=True, timeout=timeout, env=_child_environment())
+        r = subprocess.run(
+            [sys.executable, "-I", "-S", "-c", _CHILD, module_dir, function, *map(str, args)],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=_child_environment(),
+        )
     except subprocess.TimeoutExpired:
         raise SceneError(f"{what}: took longer than {timeout:.0f} s (a corrupt file?)") from None
     if r.returncode != 0:
         try:
             message = json.loads(r.stderr.strip().splitlines()[-1])["error"]
         except (ValueError, IndexError, KeyError, TypeError):
-            message = (f"OpenVDB failed (exit status {r.returncode}): the file is corrupt, or the child process "
-                       f"could not run ({r.stderr.strip()[-300:]})")
+            message = (
+                f"OpenVDB failed (exit status {r.returncode}): the file is corrupt, or the child process "
+                f"could not run ({r.stderr.strip()[-300:]})"
+            )
         raise SceneError(f"{what}: {message}")
 
 
@@ -111,5 +118,4 @@ def _load(path):
         bricks = (res + 7) // 8
         index = np.fromfile(f, "<i4", int(np.prod(bricks))).reshape(bricks[::-1])
         data = np.fromfile(f, "<f4", stored * 512 * channels).reshape(stored, 8, 8, 8, channels)
-    return {"res": res, "origin": origin, "index_to_world": index_to_world, "brick_index": index,
-            "bricks": data}
+    return {"res": res, "origin": origin, "index_to_world": index_to_world, "brick_index": index, "bricks": data}

@@ -89,9 +89,17 @@ class VolumeGrid:
         res = np.asarray(self.native.res, dtype=np.float64)
         unit_to_index = np.eye(4)  # as _grid_from_vdb: voxel i centred at index i
         unit_to_index[:3, :3], unit_to_index[:3, 3] = np.diag(res), -0.5
-        vdb.write(str(path), grid, {"res": self.native.res, "origin": (0, 0, 0),
-                                    "index_to_world": self.to_world @ np.linalg.inv(unit_to_index),
-                                    "brick_index": self.native.brick_index, "bricks": self.native.bricks})
+        vdb.write(
+            str(path),
+            grid,
+            {
+                "res": self.native.res,
+                "origin": (0, 0, 0),
+                "index_to_world": self.to_world @ np.linalg.inv(unit_to_index),
+                "brick_index": self.native.brick_index,
+                "bricks": self.native.bricks,
+            },
+        )
 
     def max(self):
         bricks = self.native.bricks
@@ -110,8 +118,9 @@ class VolumeGrid:
         if np.any(np.asarray(f(np.zeros((1, self.channels), np.float32))) != 0):
             raise ValueError("map: f(0) must be 0")
         out = np.ascontiguousarray(f(bricks), dtype=np.float32)
-        return VolumeGrid(_core.VoxelGrid.from_bricks(self.native.res, self.native.brick_index, out),
-                          self.to_world, self.source)
+        return VolumeGrid(
+            _core.VoxelGrid.from_bricks(self.native.res, self.native.brick_index, out), self.to_world, self.source
+        )
 
     @property
     def world_to_grid(self):
@@ -119,8 +128,10 @@ class VolumeGrid:
 
     def __repr__(self):
         z, y, x, c = self.shape
-        return (f"VolumeGrid({x}x{y}x{z}, {c} channel{'s' * (c > 1)}, {self.nbytes / 2**20:.1f} MiB "
-                f"of {self.dense_nbytes / 2**20:.1f} MiB dense{', ' + self.source if self.source else ''})")
+        return (
+            f"VolumeGrid({x}x{y}x{z}, {c} channel{'s' * (c > 1)}, {self.nbytes / 2**20:.1f} MiB "
+            f"of {self.dense_nbytes / 2**20:.1f} MiB dense{', ' + self.source if self.source else ''})"
+        )
 
 
 def sequence_path(path, frame):
@@ -134,7 +145,7 @@ def sequence_path(path, frame):
         raise SceneError(f"{path}: the file name has '#' but no 'frame' was given")
     head = os.path.dirname(path)
     name = os.path.basename(path)
-    return os.path.join(head, name[:run.start()] + f"{int(frame):0{len(run.group())}d}" + name[run.end():])
+    return os.path.join(head, name[: run.start()] + f"{int(frame):0{len(run.group())}d}" + name[run.end() :])
 
 
 def _check_values(values, what):
@@ -155,8 +166,12 @@ def _grid_from_vdb(d, path, name, user_to_world):
     unit_to_index = np.eye(4)
     unit_to_index[:3, :3], unit_to_index[:3, 3] = np.diag(d["res"].astype(np.float64)), d["origin"] - 0.5
     native = _core.VoxelGrid.from_bricks(tuple(int(r) for r in d["res"]), d["brick_index"], d["bricks"])
-    return VolumeGrid(native, user_to_world @ d["index_to_world"] @ unit_to_index, what,
-                      vdb=(os.path.abspath(path), name, user_to_world))
+    return VolumeGrid(
+        native,
+        user_to_world @ d["index_to_world"] @ unit_to_index,
+        what,
+        vdb=(os.path.abspath(path), name, user_to_world),
+    )
 
 
 def read_vdb_aligned(path, names, to_world=None):

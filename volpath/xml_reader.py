@@ -15,14 +15,43 @@ import numpy as np
 
 from .errors import SceneError
 
-_OBJECT_TAGS = {"scene", "integrator", "sensor", "sampler", "film", "rfilter", "shape", "bsdf",
-                "emitter", "medium", "phase", "volume", "texture"}
-_VALUE_TAGS = {"float", "integer", "boolean", "string", "rgb", "srgb", "point", "vector",
-               "spectrum", "transform", "ref"}
+_OBJECT_TAGS = {
+    "scene",
+    "integrator",
+    "sensor",
+    "sampler",
+    "film",
+    "rfilter",
+    "shape",
+    "bsdf",
+    "emitter",
+    "medium",
+    "phase",
+    "volume",
+    "texture",
+}
+_VALUE_TAGS = {
+    "float",
+    "integer",
+    "boolean",
+    "string",
+    "rgb",
+    "srgb",
+    "point",
+    "vector",
+    "spectrum",
+    "transform",
+    "ref",
+}
 _TRANSFORM_OPS = {"translate", "scale", "rotate", "lookat", "matrix"}
 # Mitsuba 0.5/0.6 names that are not a plain camelCase -> snake_case rename.
-_OLD_NAMES = {"intIOR": "int_ior", "extIOR": "ext_ior", "lookAt": "lookat", "lookat": "lookat",
-              "sampleCount": "sample_count"}
+_OLD_NAMES = {
+    "intIOR": "int_ior",
+    "extIOR": "ext_ior",
+    "lookAt": "lookat",
+    "lookat": "lookat",
+    "sampleCount": "sample_count",
+}
 _PARAM = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
 
 
@@ -83,7 +112,7 @@ class _Reader:
         def substitute(m):
             name = m.group(1)
             if name not in self.params:
-                self.fail(file, node, f"undefined parameter ${name} (declare it with <default name=\"{name}\" .../>)")
+                self.fail(file, node, f'undefined parameter ${name} (declare it with <default name="{name}" .../>)')
             self.used.add(name)
             return str(self.params[name])
 
@@ -168,15 +197,18 @@ class _Reader:
         for op in node.children:
             tag = _OLD_NAMES.get(op.tag, op.tag)
             if tag not in _TRANSFORM_OPS:
-                self.fail(file, op, f"unknown transform operation <{op.tag}> (expected one of {', '.join(sorted(_TRANSFORM_OPS))})")
+                self.fail(
+                    file,
+                    op,
+                    f"unknown transform operation <{op.tag}> (expected one of {', '.join(sorted(_TRANSFORM_OPS))})",
+                )
             m = self.transform_op(file, op, tag) @ m
         return m
 
     def xyz(self, file, node, default):
         if "value" in node.attrs:
             return self.floats(file, node, self.attr(file, node, "value"), 3, node.tag)
-        return [self.floats(file, node, self.attr(file, node, k, False) or str(default), 1, node.tag)[0]
-                for k in "xyz"]
+        return [self.floats(file, node, self.attr(file, node, k, False) or str(default), 1, node.tag)[0] for k in "xyz"]
 
     def transform_op(self, file, op, tag):
         t = np.eye(4)
@@ -220,8 +252,11 @@ class _Reader:
     # -- objects ---------------------------------------------------------------------
     def obj(self, file, node):
         tag = node.tag
-        d = {"type": self.attr(file, node, "type") if tag != "scene" else "scene",
-             "__loc__": self.loc(file, node), "__kind__": tag}
+        d = {
+            "type": self.attr(file, node, "type") if tag != "scene" else "scene",
+            "__loc__": self.loc(file, node),
+            "__kind__": tag,
+        }
         if "id" in node.attrs:
             d["__id__"] = self.attr(file, node, "id")
         self.children(file, node, d)
@@ -302,6 +337,7 @@ def read_xml(text, filename="<string>", params=None):
     scene["__old__"] = reader.old
     unknown = [k for k in params if k not in declared and k not in reader.used]
     if unknown:
-        raise SceneError(f"{filename}: parameter(s) {', '.join(sorted(unknown))} given, "
-                         f"but the scene neither declares nor uses them")
+        raise SceneError(
+            f"{filename}: parameter(s) {', '.join(sorted(unknown))} given, but the scene neither declares nor uses them"
+        )
     return scene

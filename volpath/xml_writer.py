@@ -99,7 +99,7 @@ class _Writer:
             value = write_volume(value, self.directory, lambda ext: self.asset("volumes", stem, ext), key)
         if isinstance(value, dict):
             if value.get("type") == "ref":
-                return [f'{pad}<ref{name if not top else ""} id={quoteattr(value["id"])}/>']
+                return [f"{pad}<ref{name if not top else ''} id={quoteattr(value['id'])}/>"]
             if value.get("type") in ("rgb", "spectrum"):
                 v = np.broadcast_to(np.asarray(value["value"], dtype=np.float64), (3,))
                 return [f'{pad}<rgb{name} value="{", ".join(map(_num, v))}"/>']
@@ -116,9 +116,11 @@ class _Writer:
         if arr.shape == (3,):
             return [f'{pad}<vector{name} value="{", ".join(map(_num, arr))}"/>']
         if arr.shape == (4, 4):
-            return [f"{pad}<transform{name}>",
-                    f'{pad}    <matrix value="{" ".join(map(_num, arr.ravel()))}"/>',
-                    f"{pad}</transform>"]
+            return [
+                f"{pad}<transform{name}>",
+                f'{pad}    <matrix value="{" ".join(map(_num, arr.ravel()))}"/>',
+                f"{pad}</transform>",
+            ]
         raise TypeError(f"cannot write '{key}' ({type(value).__name__}) as XML")
 
     def obj(self, key, d, depth, top):
@@ -135,7 +137,7 @@ class _Writer:
             rel = self.asset("volumes", key, "vol")
             write_vol(os.path.join(self.directory, rel), d.pop("data"))
             d["filename"] = rel
-        attrs = f' type={quoteattr(d["type"])}'
+        attrs = f" type={quoteattr(d['type'])}"
         if top:
             attrs += f" id={quoteattr(key)}"
         elif kind in ("medium", "volume", "texture"):  # the parameter they fill

@@ -54,13 +54,20 @@ def export_scene(depsgraph):
     scene = depsgraph.scene
     settings = scene.volpath
     report = Report()
-    d = {"type": "scene",
-         "integrator": {"type": "volpath", "max_depth": int(settings.max_depth), "rr_depth": int(settings.rr_depth),
-                        "max_null_collisions": int(settings.max_null_collisions)},
-         "camera": camera.export(scene, report)}
+    d = {
+        "type": "scene",
+        "integrator": {
+            "type": "volpath",
+            "max_depth": int(settings.max_depth),
+            "rr_depth": int(settings.rr_depth),
+            "max_null_collisions": int(settings.max_null_collisions),
+        },
+        "camera": camera.export(scene, report),
+    }
     suns, sequences = {}, {}
-    sun_lamps = [inst for inst in depsgraph.object_instances
-                 if inst.object.type == "LIGHT" and inst.object.data.type == "SUN"]
+    sun_lamps = [
+        inst for inst in depsgraph.object_instances if inst.object.type == "LIGHT" and inst.object.data.type == "SUN"
+    ]
     sky = world.export(scene, report, has_sun_lamp=bool(sun_lamps))
     d.update(sky)
     if "air" in sky:
@@ -122,16 +129,20 @@ def export_volume(depsgraph, name):
     obj = depsgraph.scene.objects[name].evaluated_get(depsgraph)
     slot = obj.material_slots[0].material if obj.material_slots else None
     report = Report()
-    return _volume_shape(obj, obj.matrix_world, materials.export(slot, report)[2], depsgraph.scene.volpath, report,
-                         None)
+    return _volume_shape(
+        obj, obj.matrix_world, materials.export(slot, report)[2], depsgraph.scene.volpath, report, None
+    )
 
 
 def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
     """(name, shape) per material slot of one mesh instance; the triangle arrays of a mesh
     datablock are computed once and shared by its instances (unless modifiers differ)."""
     data = obj.data.original if obj.data is not None else obj.original
-    key = (data.name, data.library.name if getattr(data, "library", None) else None,
-           obj.original.name if obj.modifiers else "")
+    key = (
+        data.name,
+        data.library.name if getattr(data, "library", None) else None,
+        obj.original.name if obj.modifiers else "",
+    )
     if key not in meshes_by_data:
         meshes_by_data[key] = meshes.triangles(obj)
     parts = meshes_by_data[key]

@@ -68,11 +68,13 @@ def _suns_and_camera(scene, frames):
         for f in frames:
             scene.frame_set(f)
             depsgraph = bpy.context.evaluated_depsgraph_get()
-            suns = {o.name: lights.sun_direction(o.evaluated_get(depsgraph)).tolist()
-                    for o in scene.objects if o.type == "LIGHT" and o.data.type == "SUN"}
+            suns = {
+                o.name: lights.sun_direction(o.evaluated_get(depsgraph)).tolist()
+                for o in scene.objects
+                if o.type == "LIGHT" and o.data.type == "SUN"
+            }
             cam = scene.camera.evaluated_get(depsgraph) if scene.camera else None
-            out.append({"frame": f, "suns": suns,
-                        "camera": camera.to_world(cam).tolist() if cam is not None else None})
+            out.append({"frame": f, "suns": suns, "camera": camera.to_world(cam).tolist() if cam is not None else None})
     finally:
         scene.frame_set(current)
     return out

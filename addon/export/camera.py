@@ -42,11 +42,16 @@ def export(scene, report):
     if cam.dof.use_dof:
         report.warn(f"camera '{obj.name}': depth of field is not supported (pinhole camera)")
     settings = scene.volpath
-    sensor = {"type": "perspective", "fov": math.degrees(fov), "fov_axis": axis,
-              "near_clip": float(cam.clip_start), "far_clip": float(cam.clip_end),
-              "to_world": to_world(obj),
-              "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
-              "sampler": {"type": "independent", "sample_count": int(settings.spp)}}
+    sensor = {
+        "type": "perspective",
+        "fov": math.degrees(fov),
+        "fov_axis": axis,
+        "near_clip": float(cam.clip_start),
+        "far_clip": float(cam.clip_end),
+        "to_world": to_world(obj),
+        "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
+        "sampler": {"type": "independent", "sample_count": int(settings.spp)},
+    }
     if cam.shift_x or cam.shift_y:
         sensor["shift_x"], sensor["shift_y"] = float(cam.shift_x), float(cam.shift_y)
     return sensor

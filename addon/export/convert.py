@@ -5,10 +5,7 @@ matrix and direction the exporter writes goes through here."""
 import numpy as np
 
 # (x, y, z) in Blender -> (x, z, -y) in the scene: a rotation of -90 degrees about x.
-BLENDER_TO_SCENE = np.array([[1.0, 0.0, 0.0, 0.0],
-                             [0.0, 0.0, 1.0, 0.0],
-                             [0.0, -1.0, 0.0, 0.0],
-                             [0.0, 0.0, 0.0, 1.0]])
+BLENDER_TO_SCENE = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 
 
 def matrix(m):

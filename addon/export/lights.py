@@ -25,11 +25,18 @@ def export(obj, matrix_world, report):
     if light.type == "POINT":
         if light.shadow_soft_size > 0:
             report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")
-        return {"type": "point", "position": convert.matrix(matrix_world)[:3, 3],
-                "intensity": convert.rgb(color / (4 * math.pi))}
+        return {
+            "type": "point",
+            "position": convert.matrix(matrix_world)[:3, 3],
+            "intensity": convert.rgb(color / (4 * math.pi)),
+        }
     if light.type == "SUN":
-        return {"type": "sun", "direction": sun_direction(obj), "angular_radius": max(light.angle / 2, 1e-4),
-                "irradiance": convert.rgb(color)}
+        return {
+            "type": "sun",
+            "direction": sun_direction(obj),
+            "angular_radius": max(light.angle / 2, 1e-4),
+            "irradiance": convert.rgb(color),
+        }
     if light.type == "AREA":
         return _area(light, matrix_world, color, report, name)
     report.warn(f"light '{name}': {light.type.lower()} lights are not supported (skipped)")
@@ -51,11 +58,20 @@ def _area(light, matrix_world, power, report, name):
     scale = np.diag([sx, sy, 1.0, 1.0])
     to_world = convert.matrix(matrix_world) @ scale
     world = positions.astype(np.float64) @ to_world[:3, :3].T
-    area = 0.5 * np.linalg.norm(np.cross(world[indices[:, 1]] - world[indices[:, 0]],
-                                         world[indices[:, 2]] - world[indices[:, 0]]), axis=1).sum()
+    area = (
+        0.5
+        * np.linalg.norm(
+            np.cross(world[indices[:, 1]] - world[indices[:, 0]], world[indices[:, 2]] - world[indices[:, 0]]), axis=1
+        ).sum()
+    )
     if area <= 0:
         report.warn(f"light '{name}': zero area (skipped)")
         return None
-    return {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world,
-            "bsdf": {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))},
-            "emitter": {"type": "area", "radiance": convert.rgb(power / (math.pi * area))}}
+    return {
+        "type": "mesh",
+        "positions": positions,
+        "indices": indices,
+        "to_world": to_world,
+        "bsdf": {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))},
+        "emitter": {"type": "area", "radiance": convert.rgb(power / (math.pi * area))},
+    }

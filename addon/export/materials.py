@@ -31,8 +31,10 @@ class _Inputs:
     def __call__(self, name):
         socket = self.node.inputs[name]
         if socket.is_linked:
-            self.report.warn(f"{self.owner}: '{name}' of '{self.node.name}' is driven by nodes; "
-                             f"using its value {_show(socket.default_value)}")
+            self.report.warn(
+                f"{self.owner}: '{name}' of '{self.node.name}' is driven by nodes; "
+                f"using its value {_show(socket.default_value)}"
+            )
         v = socket.default_value
         return np.array(v[:3], dtype=np.float64) if hasattr(v, "__len__") else float(v)
 
@@ -67,7 +69,10 @@ def export(material, report):
     volume = _linked(output, "Volume")
     medium = _volume(volume, owner, report) if volume is not None else None
     if surface is None:
-        bsdf, radiance = ({"type": "null"} if medium is not None else {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}), None
+        bsdf, radiance = (
+            ({"type": "null"} if medium is not None else {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}),
+            None,
+        )
     else:
         bsdf, radiance = _surface(surface, owner, report)
     return bsdf, radiance, medium
@@ -91,8 +96,13 @@ def _surface(node, owner, report):
         if f0 < 1e-4 and metallic == 0:
             return {"type": "diffuse", "reflectance": convert.rgb(base)}, radiance
         eta = (1 + math.sqrt(min(f0, 0.9))) / (1 - math.sqrt(min(f0, 0.9)))
-        return {"type": "principled", "base_color": convert.rgb(base), "metallic": metallic,
-                "roughness": float(np.clip(get("Roughness"), 0, 1)), "eta": max(eta, 1.0001)}, radiance
+        return {
+            "type": "principled",
+            "base_color": convert.rgb(base),
+            "metallic": metallic,
+            "roughness": float(np.clip(get("Roughness"), 0, 1)),
+            "eta": max(eta, 1.0001),
+        }, radiance
     if kind == "ShaderNodeBsdfDiffuse":
         return {"type": "diffuse", "reflectance": convert.rgb(np.clip(get("Color"), 0, 1))}, None
     if kind == "ShaderNodeBsdfGlass":
@@ -115,17 +125,30 @@ def _volume(node, owner, report):
         tint = get("Blackbody Tint")
         if np.ptp(tint) > 1e-6:
             report.warn(f"{owner}: a coloured Blackbody Tint is not supported; using its mean")
-        return {"sigma_a": sigma_a, "sigma_s": sigma_s, "g": get("Anisotropy"),
-                "attribute": node.inputs["Density Attribute"].default_value or "density",
-                "emission": get("Emission Color") * get("Emission Strength"),
-                "blackbody": get("Blackbody Intensity") * float(np.mean(tint)), "temperature": get("Temperature"),
-                "temperature_attribute": node.inputs["Temperature Attribute"].default_value or "temperature"}
+        return {
+            "sigma_a": sigma_a,
+            "sigma_s": sigma_s,
+            "g": get("Anisotropy"),
+            "attribute": node.inputs["Density Attribute"].default_value or "density",
+            "emission": get("Emission Color") * get("Emission Strength"),
+            "blackbody": get("Blackbody Intensity") * float(np.mean(tint)),
+            "temperature": get("Temperature"),
+            "temperature_attribute": node.inputs["Temperature Attribute"].default_value or "temperature",
+        }
     if kind == "ShaderNodeVolumeScatter":
-        return {"sigma_a": np.zeros(3), "sigma_s": get("Density") * np.clip(get("Color"), 0, 1),
-                "g": get("Anisotropy"), "attribute": "density"}
+        return {
+            "sigma_a": np.zeros(3),
+            "sigma_s": get("Density") * np.clip(get("Color"), 0, 1),
+            "g": get("Anisotropy"),
+            "attribute": "density",
+        }
     if kind == "ShaderNodeVolumeAbsorption":
-        return {"sigma_a": get("Density") * (1 - np.clip(get("Color"), 0, 1)), "sigma_s": np.zeros(3),
-                "g": 0.0, "attribute": "density"}
+        return {
+            "sigma_a": get("Density") * (1 - np.clip(get("Color"), 0, 1)),
+            "sigma_s": np.zeros(3),
+            "g": 0.0,
+            "attribute": "density",
+        }
     report.warn(f"{owner}: volume node '{node.name}' ({node.bl_label}) is not supported (no medium)")
     return None
 
@@ -150,8 +173,12 @@ def emitted_radiance(medium, sigma_a, temperature, report, owner):
 def homogeneous(medium, report, owner):
     """The homogeneous medium of a mesh's volume material (coefficients per Blender unit,
     which is the scene unit)."""
-    d = {"type": "homogeneous", "sigma_a": convert.rgb(medium["sigma_a"]), "sigma_s": convert.rgb(medium["sigma_s"]),
-         "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
+    d = {
+        "type": "homogeneous",
+        "sigma_a": convert.rgb(medium["sigma_a"]),
+        "sigma_s": convert.rgb(medium["sigma_s"]),
+        "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))},
+    }
     Le = emitted_radiance(medium, medium["sigma_a"], medium.get("temperature", 0.0), report, owner)
     if np.any(Le > 0):
         d["radiance"] = convert.rgb(Le)

@@ -49,8 +49,11 @@ def triangles(obj):
         for m in np.unique(materials):
             sel = indices[materials == m]
             used, remap = np.unique(sel, return_inverse=True)
-            parts[int(m)] = (np.ascontiguousarray(positions[used]), remap.reshape(-1, 3).astype(np.uint32),
-                             None if normals is None else np.ascontiguousarray(normals[used]))
+            parts[int(m)] = (
+                np.ascontiguousarray(positions[used]),
+                remap.reshape(-1, 3).astype(np.uint32),
+                None if normals is None else np.ascontiguousarray(normals[used]),
+            )
         return parts
     finally:
         obj.to_mesh_clear()

@@ -20,8 +20,13 @@ from . import convert
 def _openvdb():
     import bpy
 
-    site = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib",
-                        f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages")
+    site = os.path.join(
+        bpy.utils.resource_path("LOCAL"),
+        "python",
+        "lib",
+        f"python{sys.version_info.major}.{sys.version_info.minor}",
+        "site-packages",
+    )
     if os.path.isdir(site) and site not in sys.path:
         sys.path.append(site)
     import openvdb
@@ -32,6 +37,7 @@ def _openvdb():
 def export(obj, matrix_world, medium, report, exterior):
     """A cube shape holding the heterogeneous medium of one volume object, or None."""
     import bpy
+
     from volpath import SceneError, VolumeGrid
 
     volume = obj.data
@@ -55,13 +61,17 @@ def export(obj, matrix_world, medium, report, exterior):
     if np.ptp(sigma_t) > 1e-6 * scale:
         report.warn(f"{owner}: coloured extinction is not supported for grids; using its mean")
     albedo = np.clip(medium["sigma_s"] / scale, 0, 1)
-    interior = {"type": "heterogeneous", "scale": scale,
-                "albedo": {"type": "rgb", "value": albedo.tolist()},
-                "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))}}
+    interior = {
+        "type": "heterogeneous",
+        "scale": scale,
+        "albedo": {"type": "rgb", "value": albedo.tolist()},
+        "phase": {"type": "hg", "g": float(np.clip(medium["g"], -0.99, 0.99))},
+    }
     try:
         if _emits(medium):
-            density = _with_emission(volume, path, attribute, matrix_world, medium, scale, albedo, interior, report,
-                                     owner)
+            density = _with_emission(
+                volume, path, attribute, matrix_world, medium, scale, albedo, interior, report, owner
+            )
         else:
             density = VolumeGrid.from_file(path, attribute, to_world=convert.matrix(matrix_world))
     except SceneError as e:
@@ -108,7 +118,8 @@ def _with_emission(volume, path, attribute, matrix_world, medium, scale, albedo,
         temperature = temperature * others[0][..., 0]
     Le = emitted_radiance(medium, scale * bricks * (1 - albedo), temperature, report, owner)
     if np.any(Le > 0):
-        native = _core.VoxelGrid.from_bricks(density.native.res, density.native.brick_index,
-                                             np.ascontiguousarray(Le, dtype=np.float32))
+        native = _core.VoxelGrid.from_bricks(
+            density.native.res, density.native.brick_index, np.ascontiguousarray(Le, dtype=np.float32)
+        )
         interior["radiance"] = VolumeGrid(native, density.to_world, density.source)
     return density

@@ -38,8 +38,10 @@ def export(scene, report, has_sun_lamp):
         source = color_in.links[0].from_node
         if source.bl_idname == "ShaderNodeTexSky":
             return _sky(source, scene, strength.default_value, report, has_sun_lamp)
-        report.warn(f"world '{world.name}': '{source.name}' ({source.bl_label}) drives the background colour; "
-                    f"only the Sky Texture is supported, using the socket's colour")
+        report.warn(
+            f"world '{world.name}': '{source.name}' ({source.bl_label}) drives the background colour; "
+            f"only the Sky Texture is supported, using the socket's colour"
+        )
     radiance = np.array(color_in.default_value[:3]) * strength.default_value
     return {"world": {"type": "constant", "radiance": convert.rgb(radiance)}} if np.any(radiance > 0) else {}
 
@@ -50,12 +52,19 @@ def _sky(node, scene, strength, report, has_sun_lamp):
         report.note("Sky Texture: the atmosphere is off in the Volpath world settings (black sky)")
         return {}
     if node.sky_type not in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING"):
-        report.warn(f"Sky Texture: the {node.sky_type.replace('_', '-').title()} model is analytic; "
-                    "rendering the physical atmosphere instead")
+        report.warn(
+            f"Sky Texture: the {node.sky_type.replace('_', '-').title()} model is analytic; "
+            "rendering the physical atmosphere instead"
+        )
     unit = scene.unit_settings.scale_length or 1.0
-    air = {"type": "atmosphere", "preset": settings.atmosphere_preset, "mode": settings.atmosphere_mode,
-           "unit": float(unit), "free_flight": settings.atmosphere_free_flight,
-           "majorant_pieces": int(settings.atmosphere_pieces)}
+    air = {
+        "type": "atmosphere",
+        "preset": settings.atmosphere_preset,
+        "mode": settings.atmosphere_mode,
+        "unit": float(unit),
+        "free_flight": settings.atmosphere_free_flight,
+        "majorant_pieces": int(settings.atmosphere_pieces),
+    }
     from volpath.plugins.media import ATMOSPHERE_PRESETS
 
     preset = ATMOSPHERE_PRESETS[settings.atmosphere_preset]
@@ -74,7 +83,10 @@ def _sky(node, scene, strength, report, has_sun_lamp):
         # (the Sky Texture's sun_direction); strength scales the irradiance.
         e, r = node.sun_elevation, node.sun_rotation
         to_sun = np.array([-math.sin(r) * math.cos(e), math.cos(r) * math.cos(e), math.sin(e)])
-        entries["sun"] = {"type": "sun", "direction": -convert.direction(to_sun),
-                          "angular_radius": max(node.sun_size / 2, 1e-4),
-                          "irradiance": convert.rgb(np.full(3, settings.sun_irradiance * node.sun_intensity * strength))}
+        entries["sun"] = {
+            "type": "sun",
+            "direction": -convert.direction(to_sun),
+            "angular_radius": max(node.sun_size / 2, 1e-4),
+            "irradiance": convert.rgb(np.full(3, settings.sun_irradiance * node.sun_intensity * strength)),
+        }
     return entries

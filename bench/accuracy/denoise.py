@@ -64,8 +64,14 @@ def sunrise_renderers(frames, res):
     scene.render.resolution_percentage = 100
     directory = os.path.join(tempfile.mkdtemp(prefix="volpath-denoise-"), "scene")
     export_animation(scene, list(frames), directory)
-    return {f"sunrise frame {f}": (lambda spp, seed, denoise, f=f: render_frame(
-        directory, f, spp, tracer="null_scattering", seed=seed, threads=THREADS, denoise=denoise)[0]) for f in frames}
+    return {
+        f"sunrise frame {f}": (
+            lambda spp, seed, denoise, f=f: render_frame(
+                directory, f, spp, tracer="null_scattering", seed=seed, threads=THREADS, denoise=denoise
+            )[0]
+        )
+        for f in frames
+    }
 
 
 def reference(name, render, spp):
@@ -95,8 +101,14 @@ def measure(name, render, ladder, ref_spp):
             image = render(spp, 7 + spp, denoise).astype(np.float64)
             seconds = time.perf_counter() - start
             squared = np.mean((display(image, exposure) - shown) ** 2) - ref_noise
-            points.append({"spp": spp, "seconds": seconds, "error": float(np.sqrt(max(squared, 0.0))),
-                           "mean_shift": float(display(image, exposure).mean() - shown.mean())})
+            points.append(
+                {
+                    "spp": spp,
+                    "seconds": seconds,
+                    "error": float(np.sqrt(max(squared, 0.0))),
+                    "mean_shift": float(display(image, exposure).mean() - shown.mean()),
+                }
+            )
         rows["denoised" if denoise else "noisy"] = points
     return {"ref_noise": float(np.sqrt(ref_noise)), **rows}
 
@@ -109,8 +121,12 @@ def plot(results, path):
 
     names = list(results)
     cols = 4
-    fig, axes = plt.subplots((len(names) + cols - 1) // cols, cols, figsize=(4 * cols, 3.2 * ((len(names) + cols - 1) // cols)),
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        (len(names) + cols - 1) // cols,
+        cols,
+        figsize=(4 * cols, 3.2 * ((len(names) + cols - 1) // cols)),
+        squeeze=False,
+    )
     for ax, name in zip(axes.flat, names):
         for kind, style in (("noisy", "o-"), ("denoised", "s--")):
             pts = results[name][kind]
@@ -119,33 +135,41 @@ def plot(results, path):
         ax.set_xlabel("seconds")
         ax.set_ylabel("display RMSE")
         ax.legend(fontsize=7)
-    for ax in list(axes.flat)[len(names):]:
+    for ax in list(axes.flat)[len(names) :]:
         ax.axis("off")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
 
 
 def section(results, args):
-    lines = [MARKERS[0], "## Denoising", "",
-             f"Produced by bench/accuracy/denoise.py on {datetime.date.today().isoformat()}: each scene "
-             f"noisy and denoised (Intel Open Image Denoise through `pyoidn`, `render(..., denoise=True)`) "
-             f"at {', '.join(map(str, args.ladder))} spp, {THREADS} threads, the bench scenes at "
-             f"{args.res}² and sunrise frames at {args.sunrise_res[0]}×{args.sunrise_res[1]}, against "
-             f"{args.ref_spp}-spp references. Error: display RMSE (the video's tone curve at the reference's "
-             "auto exposure, 0..1), net of the reference's own noise. Denoising buys most where the noise "
-             "is high (few samples) and flattens where its bias is reached: the error at the top of the "
-             "ladder and the shift of the displayed image's mean show that bias (where the noisy render "
-             "is nearly converged, the denoised one is the worse of the two); time includes the filter.", "",
-             "![denoising](accuracy/denoising.png)", "",
-             "| scene | error at the lowest spp: noisy → denoised | at the highest: noisy → denoised | "
-             "shift of the displayed mean at the highest, denoised (noisy) | the filter's time |",
-             "|---|---|---|---|---|"]
+    lines = [
+        MARKERS[0],
+        "## Denoising",
+        "",
+        f"Produced by bench/accuracy/denoise.py on {datetime.date.today().isoformat()}: each scene "
+        f"noisy and denoised (Intel Open Image Denoise through `pyoidn`, `render(..., denoise=True)`) "
+        f"at {', '.join(map(str, args.ladder))} spp, {THREADS} threads, the bench scenes at "
+        f"{args.res}² and sunrise frames at {args.sunrise_res[0]}×{args.sunrise_res[1]}, against "
+        f"{args.ref_spp}-spp references. Error: display RMSE (the video's tone curve at the reference's "
+        "auto exposure, 0..1), net of the reference's own noise. Denoising buys most where the noise "
+        "is high (few samples) and flattens where its bias is reached: the error at the top of the "
+        "ladder and the shift of the displayed image's mean show that bias (where the noisy render "
+        "is nearly converged, the denoised one is the worse of the two); time includes the filter.",
+        "",
+        "![denoising](accuracy/denoising.png)",
+        "",
+        "| scene | error at the lowest spp: noisy → denoised | at the highest: noisy → denoised | "
+        "shift of the displayed mean at the highest, denoised (noisy) | the filter's time |",
+        "|---|---|---|---|---|",
+    ]
     for name, r in results.items():
         n, d = r["noisy"], r["denoised"]
-        lines.append(f"| {name} | {n[0]['error']:.4f} → {d[0]['error']:.4f} ({n[0]['spp']} spp) | "
-                     f"{n[-1]['error']:.4f} → {d[-1]['error']:.4f} ({n[-1]['spp']} spp) | "
-                     f"{d[-1]['mean_shift']:+.4f} ({n[-1]['mean_shift']:+.4f}) | "
-                     f"{d[0]['seconds'] - n[0]['seconds']:+.2f} s |")
+        lines.append(
+            f"| {name} | {n[0]['error']:.4f} → {d[0]['error']:.4f} ({n[0]['spp']} spp) | "
+            f"{n[-1]['error']:.4f} → {d[-1]['error']:.4f} ({n[-1]['spp']} spp) | "
+            f"{d[-1]['mean_shift']:+.4f} ({n[-1]['mean_shift']:+.4f}) | "
+            f"{d[0]['seconds'] - n[0]['seconds']:+.2f} s |"
+        )
     lines += ["", MARKERS[1]]
     return "\n".join(lines)
 
@@ -158,14 +182,14 @@ def kept_section(path):
     with open(path, encoding="utf-8") as f:
         text = f.read()
     start, end = text.find(MARKERS[0]), text.find(MARKERS[1])
-    return text[start:end + len(MARKERS[1])] if 0 <= start < end else ""
+    return text[start : end + len(MARKERS[1])] if 0 <= start < end else ""
 
 
 def replace_section(text, new):
     """docs/accuracy.md with its denoising section replaced (or appended)."""
     start, end = text.find(MARKERS[0]), text.find(MARKERS[1])
     if start >= 0 and end > start:
-        return text[:start] + new + text[end + len(MARKERS[1]):]
+        return text[:start] + new + text[end + len(MARKERS[1]) :]
     return text.rstrip("\n") + "\n\n" + new + "\n"
 
 

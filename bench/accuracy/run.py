@@ -30,6 +30,7 @@ sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(HERE))
 import compare_mitsuba as cm  # noqa: E402  (sets up Mitsuba's LLVM path)
 from accuracy.denoise import kept_section  # noqa: E402
+
 import volpath  # noqa: E402
 
 CACHE = os.path.join(ROOT, "bench", "cache")
@@ -45,6 +46,7 @@ class Study(NamedTuple):
     Volpath-only option kept out of the file that Mitsuba also reads). `peers` are (label,
     make(path, res)) pairs of other renderers; `reference` is the reference's scene options
     (its tracer is null_scattering)."""
+
     name: str
     desc: str
     path: str
@@ -71,61 +73,95 @@ def scene_list(mitsuba, cycles):
     out = []
     for key, (stem, desc) in cm.SCENES.items():
         heterogeneous = key == "d"  # only the null-scattering tracer handles grids
-        variants = [(t, {"tracer": t}, {}) for t in TRACERS
-                    if not (heterogeneous and t in ("absorption", "single", "multiple", "nee_mis"))]
+        variants = [
+            (t, {"tracer": t}, {})
+            for t in TRACERS
+            if not (heterogeneous and t in ("absorption", "single", "multiple", "nee_mis"))
+        ]
         variants.append(("null_scattering, independent sampler", {**NULL, "sampler": "independent"}, {}))
         if key == "d":
-            variants += [(f"majorant grid {r}³" if r > 1 else "one global majorant", NULL, {"majorants": r})
-                         for r in (1, 8, 16)]
+            variants += [
+                (f"majorant grid {r}³" if r > 1 else "one global majorant", NULL, {"majorants": r}) for r in (1, 8, 16)
+            ]
         if key in ("b", "e"):  # a point light; the sun
             variants.append(("null_scattering, no light distances", {**NULL, "light_distances": False}, {}))
         if key == "c":
-            variants += [(f"nee_mis max_depth {d}", {"tracer": "nee_mis", "max_depth": d}, {}) for d in (1, 2, 4, 8, 16, 32)]
-            variants += [("nee_mis no Russian roulette", {"tracer": "nee_mis", "rr_depth": 10 ** 6}, {})]
-        out.append(Study(f"({key}) {stem}", desc, os.path.join(bench, f"{stem}.xml"), variants,
-                         peers(key, mitsuba, cycles)))
-    out.append(Study(
-        "sparse cloud", "128³ cumulus puffs read from a .vdb (about 4 % of the voxels active, σt up to 150), "
-        "albedo 0.98, g = 0.6, sun and sky, all orders of scattering",
-        os.path.join(bench, "cloud.xml"),
-        [("auto", {"tracer": "auto"}, {}),
-         ("null_scattering (automatic majorant grid)", NULL, {}),
-         ("one global majorant", NULL, {"majorants": 1}),
-         ("majorant grid 8³", NULL, {"majorants": 8}),
-         ("majorant grid 32³", NULL, {"majorants": 32}),
-         ("independent sampler", {**NULL, "sampler": "independent"}, {})],
-        peers("cloud", (), cycles)))  # Mitsuba 3 reads no .vdb
-    out.append(Study(
-        "sunrise sky", "Bruneton atmosphere, camera 2 m up, looking 60° away from the sun at 2° "
-        "elevation (the sun's disc, a sub-pixel emitter, would dominate any error measure), "
-        "multiple scattering", sky,
-        [("null_scattering (guided free flight, tabulated transmittances, sky map)", NULL, {}),
-         ("guided free flight without the sky map (no control variates)", NULL, {"skymap": "false"}),
-         ("delta tracking, 4 majorant pieces", NULL, {"flight": "tracking"}),
-         ("delta tracking, one majorant per ray", NULL, {"flight": "tracking", "pieces": 1}),
-         ("delta tracking, 16 majorant pieces", NULL, {"flight": "tracking", "pieces": 16}),
-         ("guided, sun transmittance by quadrature on each ray", NULL, {"sun": "quadrature"}),
-         ("unbiased: delta tracking, sun ratio-tracked", NULL, {"sun": "tracking", "flight": "tracking"}),
-         ("single scattering (max_depth 2)", {**NULL, "max_depth": 2}, {}),
-         ("max_depth 4", {**NULL, "max_depth": 4}, {}),
-         ("auto", {"tracer": "auto"}, {}),
-         ("independent sampler", {**NULL, "sampler": "independent"}, {})], options=sunrise))
-    out.append(Study(
-        "sunrise sky, spectral reference", "the same sky against a spectral-mode reference (4 passes of "
-        "3 wavelengths): RGB mode's colour bias against spectral mode's cost", sky,
-        [("rgb", NULL, {}),
-         ("spectral, 1 pass", NULL, {"mode": "spectral", "passes": 1}),
-         ("spectral, 4 passes", NULL, {"mode": "spectral"})],
-        options=sunrise, reference={"mode": "spectral"}))
+            variants += [
+                (f"nee_mis max_depth {d}", {"tracer": "nee_mis", "max_depth": d}, {}) for d in (1, 2, 4, 8, 16, 32)
+            ]
+            variants += [("nee_mis no Russian roulette", {"tracer": "nee_mis", "rr_depth": 10**6}, {})]
+        out.append(
+            Study(f"({key}) {stem}", desc, os.path.join(bench, f"{stem}.xml"), variants, peers(key, mitsuba, cycles))
+        )
+    out.append(
+        Study(
+            "sparse cloud",
+            "128³ cumulus puffs read from a .vdb (about 4 % of the voxels active, σt up to 150), "
+            "albedo 0.98, g = 0.6, sun and sky, all orders of scattering",
+            os.path.join(bench, "cloud.xml"),
+            [
+                ("auto", {"tracer": "auto"}, {}),
+                ("null_scattering (automatic majorant grid)", NULL, {}),
+                ("one global majorant", NULL, {"majorants": 1}),
+                ("majorant grid 8³", NULL, {"majorants": 8}),
+                ("majorant grid 32³", NULL, {"majorants": 32}),
+                ("independent sampler", {**NULL, "sampler": "independent"}, {}),
+            ],
+            peers("cloud", (), cycles),
+        )
+    )  # Mitsuba 3 reads no .vdb
+    out.append(
+        Study(
+            "sunrise sky",
+            "Bruneton atmosphere, camera 2 m up, looking 60° away from the sun at 2° "
+            "elevation (the sun's disc, a sub-pixel emitter, would dominate any error measure), "
+            "multiple scattering",
+            sky,
+            [
+                ("null_scattering (guided free flight, tabulated transmittances, sky map)", NULL, {}),
+                ("guided free flight without the sky map (no control variates)", NULL, {"skymap": "false"}),
+                ("delta tracking, 4 majorant pieces", NULL, {"flight": "tracking"}),
+                ("delta tracking, one majorant per ray", NULL, {"flight": "tracking", "pieces": 1}),
+                ("delta tracking, 16 majorant pieces", NULL, {"flight": "tracking", "pieces": 16}),
+                ("guided, sun transmittance by quadrature on each ray", NULL, {"sun": "quadrature"}),
+                ("unbiased: delta tracking, sun ratio-tracked", NULL, {"sun": "tracking", "flight": "tracking"}),
+                ("single scattering (max_depth 2)", {**NULL, "max_depth": 2}, {}),
+                ("max_depth 4", {**NULL, "max_depth": 4}, {}),
+                ("auto", {"tracer": "auto"}, {}),
+                ("independent sampler", {**NULL, "sampler": "independent"}, {}),
+            ],
+            options=sunrise,
+        )
+    )
+    out.append(
+        Study(
+            "sunrise sky, spectral reference",
+            "the same sky against a spectral-mode reference (4 passes of "
+            "3 wavelengths): RGB mode's colour bias against spectral mode's cost",
+            sky,
+            [
+                ("rgb", NULL, {}),
+                ("spectral, 1 pass", NULL, {"mode": "spectral", "passes": 1}),
+                ("spectral, 4 passes", NULL, {"mode": "spectral"}),
+            ],
+            options=sunrise,
+            reference={"mode": "spectral"},
+        )
+    )
     return out
 
 
 def load(study, res, options):
     options = {**study.options, **options}
     if "majorants" in options and study.name.startswith("(d)"):
-        text = open(study.path).read().replace(
-            '<float name="scale" value="1.0"/>',
-            f'<float name="scale" value="1.0"/><integer name="majorant_resolution" value="{options.pop("majorants")}"/>')
+        text = (
+            open(study.path)
+            .read()
+            .replace(
+                '<float name="scale" value="1.0"/>',
+                f'<float name="scale" value="1.0"/><integer name="majorant_resolution" value="{options.pop("majorants")}"/>',
+            )
+        )
         return volpath.load_string(text, base_dir=os.path.dirname(study.path), res=res, **options)
     return volpath.load_file(study.path, res=res, **options)
 
@@ -221,8 +257,14 @@ def plot(name, curves, target, file):
         # Twenty distinct colours, and dashes for the peers, so no two curves look alike.
         peer = label.startswith(("Mitsuba", "Cycles"))
         pts = measured(pts)
-        ax.loglog([s for _, s, _ in pts], [e for _, _, e in pts], "o--" if peer else "o-", ms=3,
-                  color=colours(i % 20), label=label)
+        ax.loglog(
+            [s for _, s, _ in pts],
+            [e for _, _, e in pts],
+            "o--" if peer else "o-",
+            ms=3,
+            color=colours(i % 20),
+            label=label,
+        )
     ax.axhline(target, color="grey", lw=0.8, ls="--", label="target error")
     ax.set_xlabel("seconds (2 threads)")
     ax.set_ylabel("RMSE against the reference")
@@ -246,8 +288,15 @@ def summary_plot(rows, file):
     for j, (label, marker) in enumerate(series):
         # A dot per scene and series (bars would mislead on a log axis).
         xs = [row[1][j] or np.nan for row in rows]
-        ax.plot(xs, np.arange(len(rows)) + 0.12 * (j - 1.5), marker, ls="none", ms=6, label=label,
-                color=plt.get_cmap("tab10")(j))
+        ax.plot(
+            xs,
+            np.arange(len(rows)) + 0.12 * (j - 1.5),
+            marker,
+            ls="none",
+            ms=6,
+            label=label,
+            color=plt.get_cmap("tab10")(j),
+        )
     ax.set_yticks(range(len(rows)), [row[0] for row in rows], fontsize=8)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xscale("log")
@@ -267,8 +316,11 @@ def measure_study(study, args):
         curves[label], biases[label] = measure(study, args.res, options, kwargs, args.ladder, ref, ref_var)
     for label, make in study.peers:
         renderer = make(study.path, args.res)
-        curves[label] = [(spp, sec, cm.rmse_net(cm.mse(img, ref), ref_var))
-                         for spp in args.ladder for img, sec in [renderer.render(spp, spp)]]
+        curves[label] = [
+            (spp, sec, cm.rmse_net(cm.mse(img, ref), ref_var))
+            for spp in args.ladder
+            for img, sec in [renderer.render(spp, spp)]
+        ]
         biases[label] = None
     # The common target: the reference estimator's error at the middle of the ladder.
     mid = args.ladder[len(args.ladder) // 2]
@@ -276,8 +328,13 @@ def measure_study(study, args):
     target = next(e for s, _, e in curves[plain] if s == mid)
     if target is None:
         raise SystemExit(f"{study.name}: the reference is too noisy to measure the target error; raise --ref-seconds")
-    return {"curves": curves, "biases": biases, "target": target, "mean": float(ref.mean()),
-            "ref_rmse": float(np.sqrt(ref_var))}
+    return {
+        "curves": curves,
+        "biases": biases,
+        "target": target,
+        "mean": float(ref.mean()),
+        "ref_rmse": float(np.sqrt(ref_var)),
+    }
 
 
 def report(study, result):
@@ -291,17 +348,25 @@ def report(study, result):
     for label, pts in curves.items():
         t, bias = times[label], biases[label]
         fitted = measured(pts)
-        slope = "%.2f" % cm.fit([(s, e) for _, s, e in fitted])[1] if len(fitted) >= 2 else "—"
-        reach = "%.3g" % t if t else "never (bias)" if biased(bias, target) else "— (too few points)"
-        rows.append(f"| {label} | {reach} | {slope} | {'—' if bias is None else '%.3g' % bias} | " +
-                    " · ".join(f"{s}: {'%.3g' % e if e is not None else 'within the reference noise'} in {sec:.2f} s"
-                               for s, sec, e in pts) + " |")
+        slope = f"{cm.fit([(s, e) for _, s, e in fitted])[1]:.2f}" if len(fitted) >= 2 else "—"
+        reach = f"{t:.3g}" if t else "never (bias)" if biased(bias, target) else "— (too few points)"
+        rows.append(
+            f"| {label} | {reach} | {slope} | {'—' if bias is None else f'{bias:.3g}'} | "
+            + " · ".join(
+                f"{s}: {f'{e:.3g}' if e is not None else 'within the reference noise'} in {sec:.2f} s"
+                for s, sec, e in pts
+            )
+            + " |"
+        )
     mean = result["mean"]
-    section = (f"### {study.name}\n\n{study.desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
-               f"({target / mean:.1%} of the mean); the reference's own RMSE {result['ref_rmse']:.2g}."
-               f"\n\n![{study.name}]({png})\n\n"
-               "| estimator | seconds to target | slope | bias | spp: RMSE in time |\n|---|---|---|---|---|\n"
-               + "\n".join(rows) + "\n")
+    section = (
+        f"### {study.name}\n\n{study.desc}. Reference mean {mean:.4g}; target RMSE {target:.4g} "
+        f"({target / mean:.1%} of the mean); the reference's own RMSE {result['ref_rmse']:.2g}."
+        f"\n\n![{study.name}]({png})\n\n"
+        "| estimator | seconds to target | slope | bias | spp: RMSE in time |\n|---|---|---|---|---|\n"
+        + "\n".join(rows)
+        + "\n"
+    )
     fixed = [l for l, kw, o in study.variants if list(kw) == ["tracer"] and kw["tracer"] != "auto" and not o]
     best = min((l for l in fixed if times.get(l)), key=lambda l: times[l], default=None)
     mitsuba = min((t for l, t in times.items() if l.startswith("Mitsuba") and t), default=None)
@@ -316,7 +381,9 @@ def main():
     ap.add_argument("--res", type=int, default=128)
     ap.add_argument("--ladder", type=int, nargs="+", default=[4, 16, 64, 256])
     ap.add_argument("--ref-seconds", type=float, default=40)
-    ap.add_argument("--only", help="substring of the scene names to measure (the others' saved measurements are reused)")
+    ap.add_argument(
+        "--only", help="substring of the scene names to measure (the others' saved measurements are reused)"
+    )
     ap.add_argument("--report-only", action="store_true", help="write docs/accuracy.md from the saved measurements")
     ap.add_argument("--no-cycles", dest="cycles", action="store_false", help="leave Cycles out")
     args = ap.parse_args()
@@ -335,8 +402,12 @@ def main():
         saved = os.path.join(CACHE, f"accuracy_{_stem(study)}_{args.res}.json")
         if not args.report_only and (not args.only or args.only in study.name):
             print(study.name, flush=True)
-            result = dict(measure_study(study, args), ladder=args.ladder, date=datetime.date.today().isoformat(),
-                          machine=cm.machine())
+            result = dict(
+                measure_study(study, args),
+                ladder=args.ladder,
+                date=datetime.date.today().isoformat(),
+                machine=cm.machine(),
+            )
             with open(saved, "w") as f:
                 json.dump(result, f)
         elif os.path.exists(saved):
@@ -350,31 +421,35 @@ def main():
         if times:
             summary.append((study.name, times))
     summary_plot(summary, os.path.join(DOCS, "accuracy", "summary.png"))
-    fmt = lambda t: "%.3g" % t if t else "—"  # noqa: E731
-    table = "\n".join(f"| {name} | {fmt(a)} | {fmt(b)} ({best}) | {'%.2f' % (a / b) if a else '—'} | {fmt(m)} | {fmt(c)} |"
-                       for name, (a, b, m, c, best) in summary)
+    fmt = lambda t: f"{t:.3g}" if t else "—"
+    table = "\n".join(
+        f"| {name} | {fmt(a)} | {fmt(b)} ({best}) | {'%.2f' % (a / b) if a else '—'} | {fmt(m)} | {fmt(c)} |"
+        for name, (a, b, m, c, best) in summary
+    )
     date = datetime.date.today().isoformat()
-    text = (f"# What accuracy costs in time\n\nProduced by `make accuracy` (bench/accuracy/run.py) on {date}, "
-            f"{cm.machine()}; {args.res}×{args.res} pixels, {cm.THREADS} threads, spp ladder "
-            f"{', '.join(map(str, args.ladder))}. Each curve is RMSE against a high-spp null-scattering "
-            "reference versus wall time on log–log axes: unbiased estimators fall with slope about −0.5 "
-            "with independent samples, and more steeply with the default low-discrepancy (Sobol) sampler "
-            "where the integrand is smooth; "
-            "an estimator that leaves physics out (absorption only, single scattering, a depth limit) "
-            "flattens at its bias, listed in the tables. The reference is rendered as two independent "
-            "halves, whose difference measures its own variance; that variance is taken off every "
-            "squared error and off the bias estimate (an image's squared error against an independent "
-            "reference is its own plus the reference's), so the curves are errors against the true "
-            "image, and a point whose error the reference's noise hides is left out of the fit. "
-            "'Seconds to target' comes from the "
-            "fit and is 'never' where the bias exceeds the target. Renders under 2 s are timed twice "
-            "and the faster kept. Mitsuba 3 renders the bench files themselves; Cycles 5.0 renders "
-            "each scene rebuilt through the `bpy` module (bench/cycles_scenes.py; its per-render scene "
-            "synchronisation is not counted), so its curve also shows how far its scene and conventions "
-            "differ from Volpath's (a floor at the difference).\n\n"
-            "## Seconds to each scene's target error\n\n![summary](accuracy/summary.png)\n\n"
-            "| scene | auto s | best fixed tracer s | auto / best | Mitsuba 3 s | Cycles s |\n"
-            "|---|---|---|---|---|---|\n" + table + "\n\n## Scenes\n\n" + "\n".join(sections))
+    text = (
+        f"# What accuracy costs in time\n\nProduced by `make accuracy` (bench/accuracy/run.py) on {date}, "
+        f"{cm.machine()}; {args.res}×{args.res} pixels, {cm.THREADS} threads, spp ladder "
+        f"{', '.join(map(str, args.ladder))}. Each curve is RMSE against a high-spp null-scattering "
+        "reference versus wall time on log–log axes: unbiased estimators fall with slope about −0.5 "
+        "with independent samples, and more steeply with the default low-discrepancy (Sobol) sampler "
+        "where the integrand is smooth; "
+        "an estimator that leaves physics out (absorption only, single scattering, a depth limit) "
+        "flattens at its bias, listed in the tables. The reference is rendered as two independent "
+        "halves, whose difference measures its own variance; that variance is taken off every "
+        "squared error and off the bias estimate (an image's squared error against an independent "
+        "reference is its own plus the reference's), so the curves are errors against the true "
+        "image, and a point whose error the reference's noise hides is left out of the fit. "
+        "'Seconds to target' comes from the "
+        "fit and is 'never' where the bias exceeds the target. Renders under 2 s are timed twice "
+        "and the faster kept. Mitsuba 3 renders the bench files themselves; Cycles 5.0 renders "
+        "each scene rebuilt through the `bpy` module (bench/cycles_scenes.py; its per-render scene "
+        "synchronisation is not counted), so its curve also shows how far its scene and conventions "
+        "differ from Volpath's (a floor at the difference).\n\n"
+        "## Seconds to each scene's target error\n\n![summary](accuracy/summary.png)\n\n"
+        "| scene | auto s | best fixed tracer s | auto / best | Mitsuba 3 s | Cycles s |\n"
+        "|---|---|---|---|---|---|\n" + table + "\n\n## Scenes\n\n" + "\n".join(sections)
+    )
     path = os.path.join(DOCS, "accuracy.md")
     kept = kept_section(path)  # bench/accuracy/denoise.py's section
     with open(path, "w") as f:

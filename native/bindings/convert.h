@@ -17,8 +17,7 @@ using Array3 = std::array<double, 3>;
 inline Vec3 vec(const Array3 &a) { return {a[0], a[1], a[2]}; }
 
 inline Transform transform(const py::array_t<double, py::array::c_style | py::array::forcecast> &m) {
-    if (m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4)
-        throw std::invalid_argument("expected a 4x4 matrix");
+    if (m.ndim() != 2 || m.shape(0) != 4 || m.shape(1) != 4) throw std::invalid_argument("expected a 4x4 matrix");
     Transform t;
     for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j) t.m[i][j] = m.at(i, j);

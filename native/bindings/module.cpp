@@ -23,8 +23,7 @@ using GridPtr = std::shared_ptr<VoxelGrid>;
 
 // (z, y, x, c) float32 -> sparse VoxelGrid, c in {1, 3}.
 GridPtr grid_from_dense(const FloatArray &a) {
-    if (a.ndim() != 4 || (a.shape(3) != 1 && a.shape(3) != 3) || a.shape(0) < 1 || a.shape(1) < 1 ||
-        a.shape(2) < 1)
+    if (a.ndim() != 4 || (a.shape(3) != 1 && a.shape(3) != 3) || a.shape(0) < 1 || a.shape(1) < 1 || a.shape(2) < 1)
         throw std::invalid_argument("expected a grid of shape (z, y, x, 1 or 3)");
     const int res[3] = {int(a.shape(2)), int(a.shape(1)), int(a.shape(0))};
     return std::make_shared<VoxelGrid>(sparse_grid(a.data(), res, int(a.shape(3))));
@@ -32,7 +31,8 @@ GridPtr grid_from_dense(const FloatArray &a) {
 
 // Bricks as OpenVDB leaves hand them over: an index per brick (bz, by, bx), -1 for an empty
 // brick, into `bricks` of shape (n, 8, 8, 8, c) laid out (z, y, x) inside.
-GridPtr grid_from_bricks(std::array<int, 3> res, const py::array_t<int32_t, py::array::c_style | py::array::forcecast> &index,
+GridPtr grid_from_bricks(std::array<int, 3> res,
+                         const py::array_t<int32_t, py::array::c_style | py::array::forcecast> &index,
                          const FloatArray &bricks) {
     constexpr int B = VoxelGrid::kBrick;
     auto g = std::make_shared<VoxelGrid>();
@@ -84,10 +84,10 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
     return info;
 }
 
-py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth,
-                    int rr_depth, int max_null_collisions, bool light_distances, py::object progress_cb,
-                    py::object out, bool low_discrepancy, uint64_t first_sample, py::object starts,
-                    py::object counts, py::object halves, py::object features) {
+py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth, int rr_depth,
+                    int max_null_collisions, bool light_distances, py::object progress_cb, py::object out,
+                    bool low_discrepancy, uint64_t first_sample, py::object starts, py::object counts,
+                    py::object halves, py::object features) {
     if (!scene.built) scene.build();
     if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
     if (spp < 1) throw std::invalid_argument("spp must be at least 1");
@@ -106,8 +106,9 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
         auto array = py::array_t<T>::ensure(a);
         if (!array || array.ptr() != a.ptr() || !(array.flags() & py::array::c_style) || !array.writeable() ||
             std::vector<py::ssize_t>(array.shape(), array.shape() + array.ndim()) != shape)
-            throw std::invalid_argument(std::string(name) + " must be a writeable C-contiguous array of shape (height, width" +
-                                        (shape.size() > 2 ? ", 2, 3)" : ")") + " and dtype " + py::str(py::dtype::of<T>()).cast<std::string>());
+            throw std::invalid_argument(
+                std::string(name) + " must be a writeable C-contiguous array of shape (height, width" +
+                (shape.size() > 2 ? ", 2, 3)" : ")") + " and dtype " + py::str(py::dtype::of<T>()).cast<std::string>());
         return array.mutable_data();
     };
     const py::ssize_t h = scene.camera.height, w = scene.camera.width;
@@ -125,7 +126,8 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
         if (!image || image.ndim() != 3 || image.shape(0) != scene.camera.height ||
             image.shape(1) != scene.camera.width || image.shape(2) != 3 || !image.writeable() ||
             !(image.flags() & py::array::c_style) || image.ptr() != out.ptr())
-            throw std::invalid_argument("out must be a writeable C-contiguous float32 array of shape (height, width, 3)");
+            throw std::invalid_argument(
+                "out must be a writeable C-contiguous float32 array of shape (height, width, 3)");
     }
     float *pixels = image.mutable_data();
     std::fill(pixels, pixels + image.size(), 0.0f);
@@ -164,8 +166,9 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
             }
             if (!progress_cb.is_none()) {
                 try {
-                    const double done = progress.samples_total ? double(progress.samples_done.load()) /
-                                                                         double(progress.samples_total) : 1.0;
+                    const double done = progress.samples_total
+                                            ? double(progress.samples_done.load()) / double(progress.samples_total)
+                                            : 1.0;
                     py::object keep_going = progress_cb(done);
                     if (!keep_going.is_none() && !keep_going.cast<bool>()) progress.cancel = true;
                 } catch (py::error_already_set &e) {
@@ -197,189 +200,231 @@ PYBIND11_MODULE(_core, m) {
     py::class_<VoxelGrid, GridPtr>(m, "VoxelGrid", "A sparse voxel grid (8^3 bricks, empty ones not stored).")
         .def_static("from_dense", &grid_from_dense, py::arg("data"))
         .def_static("from_bricks", &grid_from_bricks, py::arg("res"), py::arg("brick_index"), py::arg("bricks"))
-        .def_property_readonly("res", [](const VoxelGrid &g) { return std::array<int, 3>{g.res[0], g.res[1], g.res[2]}; })
+        .def_property_readonly("res",
+                               [](const VoxelGrid &g) {
+                                   return std::array<int, 3>{g.res[0], g.res[1], g.res[2]};
+                               })
         .def_property_readonly("channels", [](const VoxelGrid &g) { return g.channels; })
-        .def_property_readonly("brick_index", [](const GridPtr &g) {
-            return view(g, g->brick_index, {g->bricks[2], g->bricks[1], g->bricks[0]});
-        })
-        .def_property_readonly("bricks", [](const GridPtr &g) {
-            constexpr int B = VoxelGrid::kBrick;
-            return view(g, g->data, {py::ssize_t(g->stored_bricks()), B, B, B, g->channels});
-        })
-        .def_property_readonly("nbytes", [](const VoxelGrid &g) {
-            return g.data.size() * sizeof(float) + g.brick_index.size() * sizeof(int32_t) + sizeof(VoxelGrid);
-        })
-        .def("dense", [](const VoxelGrid &g) {
-            FloatArray a({g.res[2], g.res[1], g.res[0], g.channels});
-            float *out = a.mutable_data();
-            for (int z = 0; z < g.res[2]; ++z)
-                for (int y = 0; y < g.res[1]; ++y)
-                    for (int x = 0; x < g.res[0]; ++x)
-                        for (int c = 0; c < g.channels; ++c) *out++ = g.voxel(x, y, z, c);
-            return a;
-        }, "The grid as a dense float32 array (z, y, x, c).")
-        .def("lookup", [](const VoxelGrid &g, Array3 p) {
-            const Spectrum v = g.lookup(vec(p));
-            return Array3{v[0], v[1], v[2]};
-        }, py::arg("p"), "Trilinear lookup at a point of the unit cube.");
+        .def_property_readonly("brick_index",
+                               [](const GridPtr &g) {
+                                   return view(g, g->brick_index, {g->bricks[2], g->bricks[1], g->bricks[0]});
+                               })
+        .def_property_readonly("bricks",
+                               [](const GridPtr &g) {
+                                   constexpr int B = VoxelGrid::kBrick;
+                                   return view(g, g->data, {py::ssize_t(g->stored_bricks()), B, B, B, g->channels});
+                               })
+        .def_property_readonly("nbytes",
+                               [](const VoxelGrid &g) {
+                                   return g.data.size() * sizeof(float) + g.brick_index.size() * sizeof(int32_t) +
+                                          sizeof(VoxelGrid);
+                               })
+        .def(
+            "dense",
+            [](const VoxelGrid &g) {
+                FloatArray a({g.res[2], g.res[1], g.res[0], g.channels});
+                float *out = a.mutable_data();
+                for (int z = 0; z < g.res[2]; ++z)
+                    for (int y = 0; y < g.res[1]; ++y)
+                        for (int x = 0; x < g.res[0]; ++x)
+                            for (int c = 0; c < g.channels; ++c) *out++ = g.voxel(x, y, z, c);
+                return a;
+            },
+            "The grid as a dense float32 array (z, y, x, c).")
+        .def(
+            "lookup",
+            [](const VoxelGrid &g, Array3 p) {
+                const Spectrum v = g.lookup(vec(p));
+                return Array3{v[0], v[1], v[2]};
+            },
+            py::arg("p"), "Trilinear lookup at a point of the unit cube.");
 
     py::class_<Scene>(m, "Scene")
         .def(py::init<>())
-        .def("add_bsdf_null", [](Scene &s) { return s.add_bsdf({NullBSDF{}, false}); })
-        .def("add_bsdf_diffuse",
-             [](Scene &s, Array3 r, bool twosided) { return s.add_bsdf({DiffuseBSDF{vec(r)}, twosided}); },
-             py::arg("reflectance"), py::arg("twosided") = false)
-        .def("add_bsdf_dielectric", [](Scene &s, double eta) { return s.add_bsdf({DielectricBSDF{eta}, false}); },
-             py::arg("eta"))
-        .def("add_bsdf_roughplastic",
-             [](Scene &s, Array3 diffuse, Array3 specular, double alpha, double eta, bool twosided) {
-                 return s.add_bsdf({RoughPlasticBSDF{vec(diffuse), vec(specular), std::max(alpha, 1e-4), eta},
-                                    twosided});
-             },
-             py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
-        .def("add_medium_homogeneous",
-             [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g, Array3 Le) {
-                 return s.add_medium(HomogeneousMedium{vec(sigma_a), vec(sigma_s), phase(g), vec(Le)});
-             },
-             py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0, py::arg("Le") = Array3{0.0, 0.0, 0.0})
-        .def("add_medium_grid",
-             [](Scene &s, const GridPtr &density, const DoubleArray &world_to_grid, const GridPtr &albedo_grid,
-                std::optional<DoubleArray> albedo_world_to_grid, Array3 albedo, double scale, double g,
-                int majorant_res, const GridPtr &Le_grid, std::optional<DoubleArray> Le_world_to_grid,
-                Array3 Le_scale) {
-                 if (!density) throw std::invalid_argument("a grid medium needs a density grid");
-                 GridMedium gm;
-                 gm.majorant_res = majorant_res;
-                 gm.density = placed(density, world_to_grid);
-                 gm.albedo_grid = placed(albedo_grid, albedo_world_to_grid);
-                 gm.Le_grid = placed(Le_grid, Le_world_to_grid);
-                 gm.Le_scale = vec(Le_scale);
-                 gm.albedo = vec(albedo);
-                 gm.scale = scale;
-                 gm.phase = phase(g);
-                 return s.add_medium(gm);
-             },
-             py::arg("density"), py::arg("world_to_grid"), py::arg("albedo_grid") = GridPtr(),
-             py::arg("albedo_world_to_grid") = py::none(), py::arg("albedo") = Array3{1.0, 1.0, 1.0},
-             py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 0,
-             py::arg("Le_grid") = GridPtr(), py::arg("Le_world_to_grid") = py::none(),
-             py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
-        .def("add_mesh",
-             [](Scene &s, const DoubleArray &positions, const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
-                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
-                std::optional<Array3> radiance) {
-                 TriangleMesh mesh;
-                 mesh.positions = points(positions, "positions");
-                 if (normals) mesh.normals = points(*normals, "normals");
-                 if (triangles.ndim() != 2 || triangles.shape(1) != 3)
-                     throw std::invalid_argument("triangles must have shape (n, 3)");
-                 mesh.triangles.resize(size_t(triangles.shape(0)));
-                 for (size_t i = 0; i < mesh.triangles.size(); ++i)
-                     mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
-                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
-                 return s.add_shape_mesh(std::move(mesh), shape_info(bsdf, interior, exterior, medium_interface),
-                                         radiance ? &Le : nullptr);
-             },
-             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"),
-             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
-             py::arg("radiance") = py::none())
-        .def("add_sphere",
-             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
-                bool medium_interface, std::optional<Array3> radiance) {
-                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
-                 return s.add_shape_sphere(Sphere{vec(center), radius, flip},
-                                           shape_info(bsdf, interior, exterior, medium_interface),
-                                           radiance ? &Le : nullptr);
-             },
-             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"),
-             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
-             py::arg("radiance") = py::none())
-        .def("add_box",
-             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
-                int exterior, bool medium_interface) {
-                 return s.add_shape_box(Box{transform(to_world), transform(to_local), flip},
-                                        shape_info(bsdf, interior, exterior, medium_interface));
-             },
-             py::arg("to_world"), py::arg("to_local"), py::arg("flip_normals"), py::arg("bsdf"),
-             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false)
-        .def("add_medium_atmosphere",
-             [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
-                double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
-                int pieces, const std::string &sun_transmittance, const std::string &free_flight, bool sky_map) {
-                 AtmosphereMedium a;
-                 a.use_sky_map = sky_map;
-                 using S = AtmosphereMedium::SunTransmittance;
-                 if (sun_transmittance == "table") a.sun_transmittance = S::Table;
-                 else if (sun_transmittance == "quadrature") a.sun_transmittance = S::Quadrature;
-                 else if (sun_transmittance == "tracking") a.sun_transmittance = S::Tracking;
-                 else throw std::invalid_argument("sun_transmittance must be table, quadrature or tracking");
-                 if (free_flight == "guided") a.free_flight = AtmosphereMedium::FreeFlight::Guided;
-                 else if (free_flight == "tracking") a.free_flight = AtmosphereMedium::FreeFlight::Tracking;
-                 else throw std::invalid_argument("free_flight must be guided or tracking");
-                 a.center = vec(center);
-                 a.planet_radius = planet_radius, a.top_radius = top_radius;
-                 a.rayleigh_sigma_s = vec(rayleigh), a.rayleigh_height = rayleigh_height;
-                 a.mie_sigma_s = vec(mie_s), a.mie_sigma_a = vec(mie_a), a.mie_height = mie_height;
-                 a.mie_g = g;
-                 a.ozone_sigma_a = vec(ozone);
-                 a.pieces = pieces;
-                 return s.add_medium(a);
-             },
-             py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
-             py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"),
-             py::arg("mie_height"), py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4,
-             py::arg("sun_transmittance") = "table", py::arg("free_flight") = "guided", py::arg("sky_map") = true)
-        .def("add_sun",
-             [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance, int replace) {
-                 return add_or_replace(s, sun_light(vec(to_sun), angular_radius, vec(irradiance)), replace);
-             },
-             py::arg("to_sun"), py::arg("angular_radius"), py::arg("irradiance"), py::arg("replace") = -1)
+        .def("add_bsdf_null",
+             [](Scene &s) {
+                 return s.add_bsdf({NullBSDF{}, false});
+             })
+        .def(
+            "add_bsdf_diffuse",
+            [](Scene &s, Array3 r, bool twosided) {
+                return s.add_bsdf({DiffuseBSDF{vec(r)}, twosided});
+            },
+            py::arg("reflectance"), py::arg("twosided") = false)
+        .def(
+            "add_bsdf_dielectric",
+            [](Scene &s, double eta) {
+                return s.add_bsdf({DielectricBSDF{eta}, false});
+            },
+            py::arg("eta"))
+        .def(
+            "add_bsdf_roughplastic",
+            [](Scene &s, Array3 diffuse, Array3 specular, double alpha, double eta, bool twosided) {
+                return s.add_bsdf(
+                    {RoughPlasticBSDF{vec(diffuse), vec(specular), std::max(alpha, 1e-4), eta}, twosided});
+            },
+            py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
+        .def(
+            "add_medium_homogeneous",
+            [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g, Array3 Le) {
+                return s.add_medium(HomogeneousMedium{vec(sigma_a), vec(sigma_s), phase(g), vec(Le)});
+            },
+            py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0, py::arg("Le") = Array3{0.0, 0.0, 0.0})
+        .def(
+            "add_medium_grid",
+            [](Scene &s, const GridPtr &density, const DoubleArray &world_to_grid, const GridPtr &albedo_grid,
+               std::optional<DoubleArray> albedo_world_to_grid, Array3 albedo, double scale, double g, int majorant_res,
+               const GridPtr &Le_grid, std::optional<DoubleArray> Le_world_to_grid, Array3 Le_scale) {
+                if (!density) throw std::invalid_argument("a grid medium needs a density grid");
+                GridMedium gm;
+                gm.majorant_res = majorant_res;
+                gm.density = placed(density, world_to_grid);
+                gm.albedo_grid = placed(albedo_grid, albedo_world_to_grid);
+                gm.Le_grid = placed(Le_grid, Le_world_to_grid);
+                gm.Le_scale = vec(Le_scale);
+                gm.albedo = vec(albedo);
+                gm.scale = scale;
+                gm.phase = phase(g);
+                return s.add_medium(gm);
+            },
+            py::arg("density"), py::arg("world_to_grid"), py::arg("albedo_grid") = GridPtr(),
+            py::arg("albedo_world_to_grid") = py::none(), py::arg("albedo") = Array3{1.0, 1.0, 1.0},
+            py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 0, py::arg("Le_grid") = GridPtr(),
+            py::arg("Le_world_to_grid") = py::none(), py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
+        .def(
+            "add_mesh",
+            [](Scene &s, const DoubleArray &positions,
+               const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
+               std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
+               std::optional<Array3> radiance) {
+                TriangleMesh mesh;
+                mesh.positions = points(positions, "positions");
+                if (normals) mesh.normals = points(*normals, "normals");
+                if (triangles.ndim() != 2 || triangles.shape(1) != 3)
+                    throw std::invalid_argument("triangles must have shape (n, 3)");
+                mesh.triangles.resize(size_t(triangles.shape(0)));
+                for (size_t i = 0; i < mesh.triangles.size(); ++i)
+                    mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
+                Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
+                return s.add_shape_mesh(std::move(mesh), shape_info(bsdf, interior, exterior, medium_interface),
+                                        radiance ? &Le : nullptr);
+            },
+            py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
+            py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none())
+        .def(
+            "add_sphere",
+            [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
+               bool medium_interface, std::optional<Array3> radiance) {
+                Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
+                return s.add_shape_sphere(Sphere{vec(center), radius, flip},
+                                          shape_info(bsdf, interior, exterior, medium_interface),
+                                          radiance ? &Le : nullptr);
+            },
+            py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"), py::arg("interior") = -1,
+            py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none())
+        .def(
+            "add_box",
+            [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
+               int exterior, bool medium_interface) {
+                return s.add_shape_box(Box{transform(to_world), transform(to_local), flip},
+                                       shape_info(bsdf, interior, exterior, medium_interface));
+            },
+            py::arg("to_world"), py::arg("to_local"), py::arg("flip_normals"), py::arg("bsdf"),
+            py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false)
+        .def(
+            "add_medium_atmosphere",
+            [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,
+               double rayleigh_height, Array3 mie_s, Array3 mie_a, double mie_height, double g, Array3 ozone,
+               int pieces, const std::string &sun_transmittance, const std::string &free_flight, bool sky_map) {
+                AtmosphereMedium a;
+                a.use_sky_map = sky_map;
+                using S = AtmosphereMedium::SunTransmittance;
+                if (sun_transmittance == "table")
+                    a.sun_transmittance = S::Table;
+                else if (sun_transmittance == "quadrature")
+                    a.sun_transmittance = S::Quadrature;
+                else if (sun_transmittance == "tracking")
+                    a.sun_transmittance = S::Tracking;
+                else
+                    throw std::invalid_argument("sun_transmittance must be table, quadrature or tracking");
+                if (free_flight == "guided")
+                    a.free_flight = AtmosphereMedium::FreeFlight::Guided;
+                else if (free_flight == "tracking")
+                    a.free_flight = AtmosphereMedium::FreeFlight::Tracking;
+                else
+                    throw std::invalid_argument("free_flight must be guided or tracking");
+                a.center = vec(center);
+                a.planet_radius = planet_radius, a.top_radius = top_radius;
+                a.rayleigh_sigma_s = vec(rayleigh), a.rayleigh_height = rayleigh_height;
+                a.mie_sigma_s = vec(mie_s), a.mie_sigma_a = vec(mie_a), a.mie_height = mie_height;
+                a.mie_g = g;
+                a.ozone_sigma_a = vec(ozone);
+                a.pieces = pieces;
+                return s.add_medium(a);
+            },
+            py::arg("center"), py::arg("planet_radius"), py::arg("top_radius"), py::arg("rayleigh"),
+            py::arg("rayleigh_height"), py::arg("mie_scattering"), py::arg("mie_absorption"), py::arg("mie_height"),
+            py::arg("g"), py::arg("ozone"), py::arg("pieces") = 4, py::arg("sun_transmittance") = "table",
+            py::arg("free_flight") = "guided", py::arg("sky_map") = true)
+        .def(
+            "add_sun",
+            [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance, int replace) {
+                return add_or_replace(s, sun_light(vec(to_sun), angular_radius, vec(irradiance)), replace);
+            },
+            py::arg("to_sun"), py::arg("angular_radius"), py::arg("irradiance"), py::arg("replace") = -1)
         .def("add_point_light",
-             [](Scene &s, Array3 p, Array3 intensity) { return s.add_light(PointLight{vec(p), vec(intensity)}); })
-        .def("add_directional_light",
-             [](Scene &s, Array3 d, Array3 irradiance, int replace) {
-                 return add_or_replace(s, DirectionalLight{normalize(vec(d)), vec(irradiance)}, replace);
-             },
-             py::arg("direction"), py::arg("irradiance"), py::arg("replace") = -1)
-        .def("add_environment",
-             [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,
-                const DoubleArray &to_local) {
-                 EnvironmentLight env;
-                 env.scale = vec(scale);
-                 env.to_world = transform(to_world);
-                 env.to_local = transform(to_local);
-                 if (image) {
-                     if (image->ndim() != 3 || image->shape(2) != 3 || image->shape(0) < 1 || image->shape(1) < 1)
-                         throw std::invalid_argument("environment image must have shape (h, w, 3)");
-                     env.height = int(image->shape(0)), env.width = int(image->shape(1));
-                     const float *p = image->data();
-                     env.pixels.resize(size_t(env.width) * env.height);
-                     for (size_t i = 0; i < env.pixels.size(); ++i) env.pixels[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
-                 }
-                 return s.add_light(env);
-             },
-             py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"))
-        .def("set_camera",
-             [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,
-                double near_clip, double far_clip, int medium, bool gaussian, double shift_x, double shift_y) {
-                 if (width < 1 || height < 1) throw std::invalid_argument("film size must be positive");
-                 Camera &c = s.camera;
-                 c.to_world = transform(to_world);
-                 c.tan_half_x = tan_x, c.tan_half_y = tan_y;
-                 c.shift_x = shift_x, c.shift_y = shift_y;
-                 c.width = width, c.height = height;
-                 c.near_clip = near_clip, c.far_clip = far_clip;
-                 c.medium = medium;
-                 c.gaussian_filter = gaussian;
-                 s.built = false;
-             },
-             py::arg("to_world"), py::arg("tan_x"), py::arg("tan_y"), py::arg("width"), py::arg("height"),
-             py::arg("near_clip"), py::arg("far_clip"), py::arg("medium"), py::arg("gaussian"),
-             py::arg("shift_x") = 0.0, py::arg("shift_y") = 0.0)
-        .def("build", [](Scene &s) {
-            py::gil_scoped_release release;
-            s.build();
-        })
+             [](Scene &s, Array3 p, Array3 intensity) {
+                 return s.add_light(PointLight{vec(p), vec(intensity)});
+             })
+        .def(
+            "add_directional_light",
+            [](Scene &s, Array3 d, Array3 irradiance, int replace) {
+                return add_or_replace(s, DirectionalLight{normalize(vec(d)), vec(irradiance)}, replace);
+            },
+            py::arg("direction"), py::arg("irradiance"), py::arg("replace") = -1)
+        .def(
+            "add_environment",
+            [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,
+               const DoubleArray &to_local) {
+                EnvironmentLight env;
+                env.scale = vec(scale);
+                env.to_world = transform(to_world);
+                env.to_local = transform(to_local);
+                if (image) {
+                    if (image->ndim() != 3 || image->shape(2) != 3 || image->shape(0) < 1 || image->shape(1) < 1)
+                        throw std::invalid_argument("environment image must have shape (h, w, 3)");
+                    env.height = int(image->shape(0)), env.width = int(image->shape(1));
+                    const float *p = image->data();
+                    env.pixels.resize(size_t(env.width) * env.height);
+                    for (size_t i = 0; i < env.pixels.size(); ++i)
+                        env.pixels[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
+                }
+                return s.add_light(env);
+            },
+            py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"))
+        .def(
+            "set_camera",
+            [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,
+               double near_clip, double far_clip, int medium, bool gaussian, double shift_x, double shift_y) {
+                if (width < 1 || height < 1) throw std::invalid_argument("film size must be positive");
+                Camera &c = s.camera;
+                c.to_world = transform(to_world);
+                c.tan_half_x = tan_x, c.tan_half_y = tan_y;
+                c.shift_x = shift_x, c.shift_y = shift_y;
+                c.width = width, c.height = height;
+                c.near_clip = near_clip, c.far_clip = far_clip;
+                c.medium = medium;
+                c.gaussian_filter = gaussian;
+                s.built = false;
+            },
+            py::arg("to_world"), py::arg("tan_x"), py::arg("tan_y"), py::arg("width"), py::arg("height"),
+            py::arg("near_clip"), py::arg("far_clip"), py::arg("medium"), py::arg("gaussian"), py::arg("shift_x") = 0.0,
+            py::arg("shift_y") = 0.0)
+        .def("build",
+             [](Scene &s) {
+                 py::gil_scoped_release release;
+                 s.build();
+             })
         .def_property_readonly("width", [](const Scene &s) { return s.camera.width; })
         .def_property_readonly("height", [](const Scene &s) { return s.camera.height; })
         .def_property_readonly("light_count", [](const Scene &s) { return s.lights.size(); })

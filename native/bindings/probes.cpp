@@ -14,45 +14,50 @@ void bind_probes(py::module_ &m) {
     // (samples, dimensions) from next_1d, for the sampler's own tests.
     // split_after >= 0: the values of the stream split off after that many dimensions (the
     // second branch of a camera ray in a medium).
-    m.def("sampler_values", [](uint64_t seed, uint64_t pixel, int samples, int dimensions, bool low_discrepancy,
-                               bool two_d, int split_after) {
-        if (samples < 1 || dimensions < 1) throw std::invalid_argument("samples and dimensions must be positive");
-        std::vector<py::ssize_t> shape{samples, dimensions};
-        if (two_d) shape.push_back(2);
-        py::array_t<double> out(shape);
-        double *o = out.mutable_data();
-        for (int i = 0; i < samples; ++i) {
-            Sampler parent(seed, pixel, uint64_t(i), low_discrepancy);
-            for (int d = 0; d < split_after; ++d) parent.next_1d();
-            Sampler sampler = split_after >= 0 ? parent.split() : parent;
-            for (int d = 0; d < dimensions; ++d) {
-                if (two_d) {
-                    const Vec2 u = sampler.next_2d();
-                    *o++ = u.x, *o++ = u.y;
-                } else {
-                    *o++ = sampler.next_1d();
+    m.def(
+        "sampler_values",
+        [](uint64_t seed, uint64_t pixel, int samples, int dimensions, bool low_discrepancy, bool two_d,
+           int split_after) {
+            if (samples < 1 || dimensions < 1) throw std::invalid_argument("samples and dimensions must be positive");
+            std::vector<py::ssize_t> shape{samples, dimensions};
+            if (two_d) shape.push_back(2);
+            py::array_t<double> out(shape);
+            double *o = out.mutable_data();
+            for (int i = 0; i < samples; ++i) {
+                Sampler parent(seed, pixel, uint64_t(i), low_discrepancy);
+                for (int d = 0; d < split_after; ++d) parent.next_1d();
+                Sampler sampler = split_after >= 0 ? parent.split() : parent;
+                for (int d = 0; d < dimensions; ++d) {
+                    if (two_d) {
+                        const Vec2 u = sampler.next_2d();
+                        *o++ = u.x, *o++ = u.y;
+                    } else {
+                        *o++ = sampler.next_1d();
+                    }
                 }
             }
-        }
-        return out;
-    }, py::arg("seed"), py::arg("pixel"), py::arg("samples"), py::arg("dimensions"), py::arg("low_discrepancy"),
-       py::arg("two_d"), py::arg("split_after") = -1);
+            return out;
+        },
+        py::arg("seed"), py::arg("pixel"), py::arg("samples"), py::arg("dimensions"), py::arg("low_discrepancy"),
+        py::arg("two_d"), py::arg("split_after") = -1);
 
     // How often a ChoiceChain over `probabilities` makes its first choice at each of them
     // (the last count: none made), one chain per pixel sample, for its chi-square test.
-    m.def("choice_chain_counts", [](const std::vector<double> &probabilities, uint64_t seed, int pixels,
-                                    int samples, bool low_discrepancy) {
-        std::vector<int64_t> counts(probabilities.size() + 1, 0);
-        for (int pixel = 0; pixel < pixels; ++pixel)
-            for (int i = 0; i < samples; ++i) {
-                Sampler sampler(seed, uint64_t(pixel), uint64_t(i), low_discrepancy);
-                ChoiceChain chain;
-                size_t k = 0;
-                while (k < probabilities.size() && !chain.choose(probabilities[k], sampler)) ++k;
-                ++counts[k];
-            }
-        return counts;
-    }, py::arg("probabilities"), py::arg("seed"), py::arg("pixels"), py::arg("samples"), py::arg("low_discrepancy"));
+    m.def(
+        "choice_chain_counts",
+        [](const std::vector<double> &probabilities, uint64_t seed, int pixels, int samples, bool low_discrepancy) {
+            std::vector<int64_t> counts(probabilities.size() + 1, 0);
+            for (int pixel = 0; pixel < pixels; ++pixel)
+                for (int i = 0; i < samples; ++i) {
+                    Sampler sampler(seed, uint64_t(pixel), uint64_t(i), low_discrepancy);
+                    ChoiceChain chain;
+                    size_t k = 0;
+                    while (k < probabilities.size() && !chain.choose(probabilities[k], sampler)) ++k;
+                    ++counts[k];
+                }
+            return counts;
+        },
+        py::arg("probabilities"), py::arg("seed"), py::arg("pixels"), py::arg("samples"), py::arg("low_discrepancy"));
 
     // Sampler access for the statistical tests (chi-square against the pdfs).
     m.def("phase_sample", [](double g, const DoubleArray &u) {
@@ -89,41 +94,50 @@ void bind_probes(py::module_ &m) {
         if (std::holds_alternative<EnvironmentLight>(l)) throw std::invalid_argument("environments have no distances");
         return LightDistances(l, Ray{vec(o), normalize(vec(d)), t0, t1}, t1, vec(sigma_t));
     };
-    m.def("light_distance_count", [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1,
-                                                    Array3 sigma_t) {
-        return light_distances(s, light, o, d, t0, t1, sigma_t).count;
-    }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"), py::arg("sigma_t"));
-    m.def("light_distance_sample", [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0,
-                                                     double t1, Array3 sigma_t, int channel, int k, const DoubleArray &u) {
-        const LightDistances distances = light_distances(s, light, o, d, t0, t1, sigma_t);
-        if (k < 0 || k >= distances.count) throw std::out_of_range("no such distance on this segment");
-        if (channel < 0 || channel > 2) throw std::out_of_range("channel must be 0, 1 or 2");
-        py::array_t<double> t(u.shape(0)), density({size_t(u.shape(0)), size_t(3)});
-        auto p = density.mutable_unchecked<2>();
-        for (py::ssize_t i = 0; i < u.shape(0); ++i) {
-            Real ti;
-            const bool ok = distances.sample(k, u.at(i), channel, ti);
-            const Spectrum di = ok ? distances.density(ti) : Spectrum(0.0);
-            t.mutable_at(i) = ok ? ti : std::numeric_limits<Real>::quiet_NaN();
-            p(i, 0) = di.x, p(i, 1) = di.y, p(i, 2) = di.z;
-        }
-        return py::make_tuple(t, density);
-    }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
-       py::arg("sigma_t"), py::arg("channel"), py::arg("k"), py::arg("u"));
-    m.def("light_distance_density", [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0,
-                                                      double t1, Array3 sigma_t, double t) {
-        const Spectrum p = light_distances(s, light, o, d, t0, t1, sigma_t).density(t);
-        return std::array<double, 3>{p.x, p.y, p.z};
-    }, py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
-       py::arg("sigma_t"), py::arg("t"));
+    m.def(
+        "light_distance_count",
+        [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1, Array3 sigma_t) {
+            return light_distances(s, light, o, d, t0, t1, sigma_t).count;
+        },
+        py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
+        py::arg("sigma_t"));
+    m.def(
+        "light_distance_sample",
+        [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1, Array3 sigma_t,
+                          int channel, int k, const DoubleArray &u) {
+            const LightDistances distances = light_distances(s, light, o, d, t0, t1, sigma_t);
+            if (k < 0 || k >= distances.count) throw std::out_of_range("no such distance on this segment");
+            if (channel < 0 || channel > 2) throw std::out_of_range("channel must be 0, 1 or 2");
+            py::array_t<double> t(u.shape(0)), density({size_t(u.shape(0)), size_t(3)});
+            auto p = density.mutable_unchecked<2>();
+            for (py::ssize_t i = 0; i < u.shape(0); ++i) {
+                Real ti;
+                const bool ok = distances.sample(k, u.at(i), channel, ti);
+                const Spectrum di = ok ? distances.density(ti) : Spectrum(0.0);
+                t.mutable_at(i) = ok ? ti : std::numeric_limits<Real>::quiet_NaN();
+                p(i, 0) = di.x, p(i, 1) = di.y, p(i, 2) = di.z;
+            }
+            return py::make_tuple(t, density);
+        },
+        py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
+        py::arg("sigma_t"), py::arg("channel"), py::arg("k"), py::arg("u"));
+    m.def(
+        "light_distance_density",
+        [light_distances](const Scene &s, int light, Array3 o, Array3 d, double t0, double t1, Array3 sigma_t,
+                          double t) {
+            const Spectrum p = light_distances(s, light, o, d, t0, t1, sigma_t).density(t);
+            return std::array<double, 3>{p.x, p.y, p.z};
+        },
+        py::arg("scene"), py::arg("light"), py::arg("o"), py::arg("d"), py::arg("t0"), py::arg("t1"),
+        py::arg("sigma_t"), py::arg("t"));
     // Majorant pieces of a medium along a ray: (t0, t1, sigma_maj, sigma_min) rows.
     m.def("majorant_segments", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
         MajorantIterator pieces(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
         std::vector<std::array<double, 8>> rows;
         MajorantSegment g;
         while (pieces.next(g))
-            rows.push_back({g.t0, g.t1, g.sigma_maj.x, g.sigma_maj.y, g.sigma_maj.z, g.sigma_min.x, g.sigma_min.y,
-                            g.sigma_min.z});
+            rows.push_back(
+                {g.t0, g.t1, g.sigma_maj.x, g.sigma_maj.y, g.sigma_maj.z, g.sigma_min.x, g.sigma_min.y, g.sigma_min.z});
         py::array_t<double> out({rows.size(), size_t(8)});
         auto r = out.mutable_unchecked<2>();
         for (size_t i = 0; i < rows.size(); ++i)
@@ -162,26 +176,29 @@ void bind_probes(py::module_ &m) {
     // geometric normal; `medium`: the one the rays travel in, as the tracers pass it.
     // medium None: the plain BVH traversal; else the ray travels in that medium (-1: none),
     // with the shortcuts of Scene::intersect.
-    m.def("intersect", [](Scene &s, const DoubleArray &o, const DoubleArray &d, std::optional<int> medium) {
-        if (!s.built) s.build();
-        const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
-        if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
-        if (medium && (*medium < -1 || *medium >= int(s.media.size()))) throw std::out_of_range("invalid medium");
-        py::array_t<double> t(os.size()), n({py::ssize_t(os.size()), py::ssize_t(3)});
-        py::array_t<int> shape(os.size());
-        auto tt = t.mutable_unchecked<1>();
-        auto nn = n.mutable_unchecked<2>();
-        auto ss = shape.mutable_unchecked<1>();
-        for (size_t i = 0; i < os.size(); ++i) {
-            Intersection its;
-            const Ray ray{os[i], normalize(ds[i]), 0, kInfinity};
-            const bool hit = medium ? s.intersect(ray, its, *medium) : s.intersect(ray, its);
-            tt(i) = hit ? its.t : kInfinity;
-            ss(i) = hit ? its.shape : -1;
-            for (int k = 0; k < 3; ++k) nn(i, k) = hit ? its.n[k] : 0.0;
-        }
-        return py::make_tuple(t, shape, n);
-    }, py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none());
+    m.def(
+        "intersect",
+        [](Scene &s, const DoubleArray &o, const DoubleArray &d, std::optional<int> medium) {
+            if (!s.built) s.build();
+            const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
+            if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
+            if (medium && (*medium < -1 || *medium >= int(s.media.size()))) throw std::out_of_range("invalid medium");
+            py::array_t<double> t(os.size()), n({py::ssize_t(os.size()), py::ssize_t(3)});
+            py::array_t<int> shape(os.size());
+            auto tt = t.mutable_unchecked<1>();
+            auto nn = n.mutable_unchecked<2>();
+            auto ss = shape.mutable_unchecked<1>();
+            for (size_t i = 0; i < os.size(); ++i) {
+                Intersection its;
+                const Ray ray{os[i], normalize(ds[i]), 0, kInfinity};
+                const bool hit = medium ? s.intersect(ray, its, *medium) : s.intersect(ray, its);
+                tt(i) = hit ? its.t : kInfinity;
+                ss(i) = hit ? its.shape : -1;
+                for (int k = 0; k < 3; ++k) nn(i, k) = hit ? its.n[k] : 0.0;
+            }
+            return py::make_tuple(t, shape, n);
+        },
+        py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none());
     // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
     m.def("medium_containers", [](Scene &s) {
         if (!s.built) s.build();
@@ -199,57 +216,59 @@ void bind_probes(py::module_ &m) {
     });
     // The optical depth a shadow ray to the sun takes through the air (table or quadrature).
     m.def("sun_optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max) {
-        const Spectrum tau = sun_optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
+        const Spectrum tau =
+            sun_optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max);
         return std::array<double, 3>{tau.x, tau.y, tau.z};
     });
     // The guided free flight's tabulation of one ray through the air (lit by the scene's
     // sun): optical depths at distances ts, and collision distances with their densities
     // for the uniform numbers us.
-    m.def("air_segment", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts,
-                            const DoubleArray &us) {
-        if (!s.built) s.build();
-        const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
-        const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
-        const AirSegment seg = air_segment(air, ray, t_max, s.sun_guide());
-        py::array_t<double> tau({size_t(ts.shape(0)), size_t(3)}), t_out(us.shape(0)), pdf(us.shape(0));
-        auto r = tau.mutable_unchecked<2>();
-        for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
-            const Spectrum v = seg.optical_depth(ts.at(i));
-            r(i, 0) = v.x, r(i, 1) = v.y, r(i, 2) = v.z;
-        }
-        for (py::ssize_t i = 0; i < us.shape(0); ++i) {
-            Real t = 0, p = 0;
-            if (!seg.sample(us.at(i), t, p)) t = p = std::numeric_limits<double>::quiet_NaN();
-            t_out.mutable_at(i) = t, pdf.mutable_at(i) = p;
-        }
-        return py::make_tuple(tau, t_out, pdf);
-    });
+    m.def("air_segment",
+          [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts, const DoubleArray &us) {
+              if (!s.built) s.build();
+              const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
+              const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
+              const AirSegment seg = air_segment(air, ray, t_max, s.sun_guide());
+              py::array_t<double> tau({size_t(ts.shape(0)), size_t(3)}), t_out(us.shape(0)), pdf(us.shape(0));
+              auto r = tau.mutable_unchecked<2>();
+              for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
+                  const Spectrum v = seg.optical_depth(ts.at(i));
+                  r(i, 0) = v.x, r(i, 1) = v.y, r(i, 2) = v.z;
+              }
+              for (py::ssize_t i = 0; i < us.shape(0); ++i) {
+                  Real t = 0, p = 0;
+                  if (!seg.sample(us.at(i), t, p)) t = p = std::numeric_limits<double>::quiet_NaN();
+                  t_out.mutable_at(i) = t, pdf.mutable_at(i) = p;
+              }
+              return py::make_tuple(tau, t_out, pdf);
+          });
     // Where local shapes may shadow the sun along a ray (Scene::local_sun_shadow), with the
     // bounds it tests; (inf, -inf) for none.
     m.def("local_sun_shadow", [](Scene &s, Array3 o, Array3 d, double t0, double t1) {
         if (!s.built) s.build();
         const auto [a, b] = s.local_sun_shadow(Ray{vec(o), normalize(vec(d))}, t0, t1);
         const Bounds &box = s.local_bounds;
-        return py::make_tuple(a, b, py::make_tuple(box.lo.x, box.lo.y, box.lo.z), py::make_tuple(box.hi.x, box.hi.y, box.hi.z));
+        return py::make_tuple(a, b, py::make_tuple(box.lo.x, box.lo.y, box.lo.z),
+                              py::make_tuple(box.hi.x, box.hi.y, box.hi.z));
     });
     // The light model of one guided segment (AirSegment::light_model at distances ts, and its
     // integral), with or without the sky map's scattered light.
-    m.def("air_light_model", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts,
-                                bool with_map) {
-        if (!s.built) s.build();
-        const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
-        if (with_map && !air.sky_map) throw std::invalid_argument("the medium has no sky map");
-        const AirSegment seg = air_segment(air, Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, s.sun_guide(),
-                                           with_map ? air.sky_map.get() : nullptr);
-        py::array_t<double> light({size_t(ts.shape(0)), size_t(3)});
-        auto r = light.mutable_unchecked<2>();
-        for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
-            const Spectrum v = seg.light_model(ts.at(i));
-            r(i, 0) = v.x, r(i, 1) = v.y, r(i, 2) = v.z;
-        }
-        const Spectrum total = seg.light_integral();
-        return py::make_tuple(light, Array3{total.x, total.y, total.z});
-    });
+    m.def("air_light_model",
+          [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts, bool with_map) {
+              if (!s.built) s.build();
+              const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
+              if (with_map && !air.sky_map) throw std::invalid_argument("the medium has no sky map");
+              const AirSegment seg = air_segment(air, Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, s.sun_guide(),
+                                                 with_map ? air.sky_map.get() : nullptr);
+              py::array_t<double> light({size_t(ts.shape(0)), size_t(3)});
+              auto r = light.mutable_unchecked<2>();
+              for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
+                  const Spectrum v = seg.light_model(ts.at(i));
+                  r(i, 0) = v.x, r(i, 1) = v.y, r(i, 2) = v.z;
+              }
+              const Spectrum total = seg.light_integral();
+              return py::make_tuple(light, Array3{total.x, total.y, total.z});
+          });
     // The sky map seen from p: its pdf and radiance along dirs (n x 3), directions drawn for
     // the uniform numbers us (m x 3: the unit square and the level's choice) with the
     // densities sample() gives them, its Rayleigh integral for the incoming direction d_in,
@@ -285,33 +304,35 @@ void bind_probes(py::module_ &m) {
         return out;
     });
     m.def("optical_depth", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int steps) {
-        const Spectrum tau = optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max},
-                                           t_max, steps);
+        const Spectrum tau =
+            optical_depth(s.media.at(size_t(medium)), Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, steps);
         return Array3{tau.x, tau.y, tau.z};
     });
     // Mean of n ratio-tracking estimates per channel, each channel sampled with its own
     // majorant, and the standard errors; `residual`: residual ratio tracking.
-    m.def("ratio_tracking", [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int n, uint64_t seed,
-                               bool residual) {
-        const Medium &m = s.media.at(size_t(medium));
-        const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
-        Spectrum sum(0.0), sum2(0.0);
-        {
-            py::gil_scoped_release release;
-            for (int c = 0; c < 3; ++c) {
-                for (int i = 0; i < n; ++i) {
-                    Sampler rng(seed, uint64_t(c), uint64_t(i));
-                    const Real T = ratio_tracking(m, ray, t_max, c, rng, residual)[c];
-                    sum[c] += T;
-                    sum2[c] += T * T;
+    m.def(
+        "ratio_tracking",
+        [](Scene &s, int medium, Array3 o, Array3 d, double t_max, int n, uint64_t seed, bool residual) {
+            const Medium &m = s.media.at(size_t(medium));
+            const Ray ray{vec(o), normalize(vec(d)), 0, t_max};
+            Spectrum sum(0.0), sum2(0.0);
+            {
+                py::gil_scoped_release release;
+                for (int c = 0; c < 3; ++c) {
+                    for (int i = 0; i < n; ++i) {
+                        Sampler rng(seed, uint64_t(c), uint64_t(i));
+                        const Real T = ratio_tracking(m, ray, t_max, c, rng, residual)[c];
+                        sum[c] += T;
+                        sum2[c] += T * T;
+                    }
                 }
             }
-        }
-        const Spectrum mean = sum / Real(n), var = clamp_zero(sum2 / Real(n) - mean * mean);
-        return py::make_tuple(Array3{mean.x, mean.y, mean.z},
-                              Array3{std::sqrt(var.x / n), std::sqrt(var.y / n), std::sqrt(var.z / n)});
-    }, py::arg("scene"), py::arg("medium"), py::arg("o"), py::arg("d"), py::arg("t_max"), py::arg("n"),
-       py::arg("seed"), py::arg("residual") = false);
+            const Spectrum mean = sum / Real(n), var = clamp_zero(sum2 / Real(n) - mean * mean);
+            return py::make_tuple(Array3{mean.x, mean.y, mean.z},
+                                  Array3{std::sqrt(var.x / n), std::sqrt(var.y / n), std::sqrt(var.z / n)});
+        },
+        py::arg("scene"), py::arg("medium"), py::arg("o"), py::arg("d"), py::arg("t_max"), py::arg("n"),
+        py::arg("seed"), py::arg("residual") = false);
     m.def("light_sample", [](Scene &s, int light, Array3 ref, const DoubleArray &u) {
         if (!s.built) s.build();
         if (light < 0 || light >= int(s.lights.size())) throw std::out_of_range("no such light");
@@ -339,8 +360,7 @@ void bind_probes(py::module_ &m) {
             Intersection its;
             o(i) = 0.0;
             if (const auto *area = std::get_if<AreaLight>(&l)) {
-                if (!s.intersect(Ray{vec(ref), d, 0, kInfinity}, its) || its.shape != area->shape ||
-                    dot(its.n, d) >= 0)
+                if (!s.intersect(Ray{vec(ref), d, 0, kInfinity}, its) || its.shape != area->shape || dot(its.n, d) >= 0)
                     continue;
             }
             o(i) = light_pdf(l, s.geometry, vec(ref), d, its);
@@ -354,7 +374,8 @@ void bind_probes(py::module_ &m) {
         auto p = pdfs.mutable_unchecked<1>();
         for (size_t i = 0; i < n; ++i) {
             BSDFSample bs;
-            const bool ok = bsdf_sample(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), u.at(i, 0), {u.at(i, 1), u.at(i, 2)}, bs);
+            const bool ok =
+                bsdf_sample(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), u.at(i, 0), {u.at(i, 1), u.at(i, 2)}, bs);
             d(i, 0) = bs.wo.x, d(i, 1) = bs.wo.y, d(i, 2) = bs.wo.z;
             p(i) = ok ? bs.pdf : 0.0;
         }

@@ -26,12 +26,21 @@ constexpr int kBrick = 8;
 // A brick index larger than this (a 2048^3 bounding box) is refused before allocation.
 constexpr size_t kMaxBricks = size_t(1) << 24;
 
-template <typename T> struct Channels { static constexpr int value = 1; };
-template <typename T> struct Channels<openvdb::math::Vec3<T>> { static constexpr int value = 3; };
+template <typename T>
+struct Channels {
+    static constexpr int value = 1;
+};
+template <typename T>
+struct Channels<openvdb::math::Vec3<T>> {
+    static constexpr int value = 3;
+};
 
 float channel(float v, int) { return v; }
 float channel(double v, int) { return float(v); }
-template <typename T> float channel(const openvdb::math::Vec3<T> &v, int c) { return float(v[c]); }
+template <typename T>
+float channel(const openvdb::math::Vec3<T> &v, int c) {
+    return float(v[c]);
+}
 
 // What a grid becomes: Volpath's brick layout and the index-to-world matrix (column vectors).
 struct Bricks {
@@ -94,7 +103,8 @@ Bricks read_grid(const GridT &grid) {
     }
 
     const openvdb::math::Transform &xf = grid.transform();
-    if (!xf.isLinear()) throw std::invalid_argument("the grid's transform is not linear (frustum grids are not supported)");
+    if (!xf.isLinear())
+        throw std::invalid_argument("the grid's transform is not linear (frustum grids are not supported)");
     const openvdb::Mat4d m = xf.baseMap()->getAffineMap()->getMat4();  // row vectors: world = ijk * m
     for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j) out.index_to_world[i * 4 + j] = m(j, i);
@@ -113,7 +123,8 @@ Bricks read_bricks(const std::string &path, const std::string &name) {
     if (!file.hasGrid(name)) {
         std::string names;
         for (auto it = file.beginName(); it != file.endName(); ++it) names += (names.empty() ? "'" : ", '") + *it + "'";
-        throw std::invalid_argument("no grid named '" + name + "' (the file has " + (names.empty() ? "none" : names) + ")");
+        throw std::invalid_argument("no grid named '" + name + "' (the file has " + (names.empty() ? "none" : names) +
+                                    ")");
     }
     openvdb::GridBase::Ptr base = file.readGrid(name);
     file.close();
@@ -123,7 +134,8 @@ Bricks read_bricks(const std::string &path, const std::string &name) {
     if (auto g = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) return read_grid(*g);
     if (auto g = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base)) return read_grid(*g);
     if (auto g = openvdb::gridPtrCast<openvdb::Vec3DGrid>(base)) return read_grid(*g);
-    throw std::invalid_argument("grid type '" + base->valueType() + "' is not supported (expected float, double or vec3)");
+    throw std::invalid_argument("grid type '" + base->valueType() +
+                                "' is not supported (expected float, double or vec3)");
 }
 
 // The bricks as a little-endian file that volpath/vdb.py reads with numpy (the reading
@@ -191,8 +203,10 @@ typename GridT::Ptr grid_from_bricks(const Bricks &b) {
                         for (int x = 0; x < kBrick; ++x) {
                             const float *v = brick + ((z * kBrick + y) * kBrick + x) * C;
                             ValueT value;
-                            if constexpr (C == 1) value = v[0];
-                            else value = ValueT(v[0], v[1], v[2]);
+                            if constexpr (C == 1)
+                                value = v[0];
+                            else
+                                value = ValueT(v[0], v[1], v[2]);
                             if (openvdb::math::isZero(value)) continue;
                             access.setValue(openvdb::Coord(b.origin[0] + bx * kBrick + x, b.origin[1] + by * kBrick + y,
                                                            b.origin[2] + bz * kBrick + z),
@@ -206,8 +220,10 @@ void write_vdb(const std::string &brick_path, const std::string &name, const std
     openvdb::initialize();
     const Bricks b = load(brick_path);
     openvdb::GridBase::Ptr grid;
-    if (b.channels == 1) grid = grid_from_bricks<openvdb::FloatGrid>(b);
-    else grid = grid_from_bricks<openvdb::Vec3SGrid>(b);
+    if (b.channels == 1)
+        grid = grid_from_bricks<openvdb::FloatGrid>(b);
+    else
+        grid = grid_from_bricks<openvdb::Vec3SGrid>(b);
     openvdb::Mat4d m;  // row vectors: world = ijk * m
     for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j) m(j, i) = b.index_to_world[i * 4 + j];

@@ -37,17 +37,30 @@ def smooth_noise(shape, cells, rng):
         if len(shape) == 2:
             a, b = i
             u, v = t
-            total += amplitude * ((lattice[a, b] * (1 - u) + lattice[a + 1, b] * u) * (1 - v)
-                                  + (lattice[a, b + 1] * (1 - u) + lattice[a + 1, b + 1] * u) * v)
+            total += amplitude * (
+                (lattice[a, b] * (1 - u) + lattice[a + 1, b] * u) * (1 - v)
+                + (lattice[a, b + 1] * (1 - u) + lattice[a + 1, b + 1] * u) * v
+            )
         else:
             a, b, c = i
             u, v, w = t
+
             def lerp(x, y, s):
                 return x * (1 - s) + y * s
-            total += amplitude * lerp(lerp(lerp(lattice[a, b, c], lattice[a + 1, b, c], u),
-                                           lerp(lattice[a, b + 1, c], lattice[a + 1, b + 1, c], u), v),
-                                      lerp(lerp(lattice[a, b, c + 1], lattice[a + 1, b, c + 1], u),
-                                           lerp(lattice[a, b + 1, c + 1], lattice[a + 1, b + 1, c + 1], u), v), w)
+
+            total += amplitude * lerp(
+                lerp(
+                    lerp(lattice[a, b, c], lattice[a + 1, b, c], u),
+                    lerp(lattice[a, b + 1, c], lattice[a + 1, b + 1, c], u),
+                    v,
+                ),
+                lerp(
+                    lerp(lattice[a, b, c + 1], lattice[a + 1, b, c + 1], u),
+                    lerp(lattice[a, b + 1, c + 1], lattice[a + 1, b + 1, c + 1], u),
+                    v,
+                ),
+                w,
+            )
     return total / 1.75
 
 
@@ -68,8 +81,8 @@ def terrain():
     n, size = 257, 4000.0
     x, y = np.meshgrid(np.linspace(-size / 2, size / 2, n), np.linspace(-size / 2, size / 2, n), indexing="ij")
     hills = 150 * smooth_noise((n, n), 5, rng)
-    valley = 1 - np.exp(-(y / 450) ** 2)  # 0 on the valley floor, 1 on the hills
-    knoll = 25 * np.exp(-((x + 300) ** 2 + y ** 2) / 160 ** 2)
+    valley = 1 - np.exp(-((y / 450) ** 2))  # 0 on the valley floor, 1 on the hills
+    knoll = 25 * np.exp(-((x + 300) ** 2 + y**2) / 160**2)
     height = hills * valley + 4 * smooth_noise((n, n), 20, rng) + knoll
     verts = np.stack([x, y, height], axis=-1).reshape(-1, 3)
     i, j = np.meshgrid(np.arange(n - 1), np.arange(n - 1), indexing="ij")
@@ -96,8 +109,9 @@ def stones(ground):
         angle = 2 * math.pi * k / 7
         px, py = -250 + 11 * math.cos(angle), 11 * math.sin(angle)
         h = 3 + 2 * rng.random()
-        bpy.ops.mesh.primitive_cube_add(size=1, location=(px, py, ground(px, py) + h / 2 - 0.3),
-                                        rotation=(0, 0, rng.random() * math.pi))
+        bpy.ops.mesh.primitive_cube_add(
+            size=1, location=(px, py, ground(px, py) + h / 2 - 0.3), rotation=(0, 0, rng.random() * math.pi)
+        )
         obj = bpy.context.object
         obj.scale = (1.2, 0.6, h)
         obj.name = f"Stone.{k}"
@@ -115,7 +129,7 @@ def fog_bank(directory):
     nx, ny, nz, voxel = 240, 120, 16, 5.0
     noise = smooth_noise((nx, ny, nz), 6, rng)
     x, y, z = np.meshgrid(np.linspace(-1, 1, nx), np.linspace(-1, 1, ny), np.linspace(0, 1, nz), indexing="ij")
-    edge = np.clip(1 - x ** 8 - y ** 4, 0, 1)
+    edge = np.clip(1 - x**8 - y**4, 0, 1)
     density = np.clip(noise * 1.6 - 0.5, 0, None) * np.exp(-3 * z) * edge
     density[density < 0.02] = 0
     grid = vdb.FloatGrid()
@@ -138,7 +152,7 @@ def fog_bank(directory):
     for node in [n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"]:
         tree.nodes.remove(node)
     pv = tree.nodes.new("ShaderNodeVolumePrincipled")
-    pv.inputs["Density"].default_value = 0.01   # per metre: visibility of several hundred metres
+    pv.inputs["Density"].default_value = 0.01  # per metre: visibility of several hundred metres
     pv.inputs["Color"].default_value = (0.98, 0.98, 0.98, 1)
     pv.inputs["Anisotropy"].default_value = 0.6
     tree.links.new(pv.outputs[0], out.inputs["Volume"])
@@ -149,7 +163,7 @@ def sun_and_sky(scene):
     bpy.ops.object.light_add(type="SUN", location=(0, 0, 100))
     sun = bpy.context.object
     sun.name = "Sun"
-    sun.data.energy = 20.0      # W/m² at the top of the atmosphere (scaled for display)
+    sun.data.energy = 20.0  # W/m² at the top of the atmosphere (scaled for display)
     sun.data.angle = math.radians(0.545)
     # The lamp shines along its -Z. Rotating by (90 - elevation) about Y turns -Z towards -X:
     # the light travels west, the sun stands in the east (+X); Z adds the drift to the south.
@@ -169,8 +183,9 @@ def sun_and_sky(scene):
 
 def camera(scene, ground):
     px, py = -300.0, 0.0
-    bpy.ops.object.camera_add(location=(px, py, ground(px, py) + 2.0),
-                              rotation=(math.radians(86), 0, math.radians(-90)))  # facing +X, east
+    bpy.ops.object.camera_add(
+        location=(px, py, ground(px, py) + 2.0), rotation=(math.radians(86), 0, math.radians(-90))
+    )  # facing +X, east
     cam = bpy.context.object
     cam.name = "Camera"
     cam.data.lens = 28

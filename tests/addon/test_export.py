@@ -5,9 +5,9 @@ import math
 
 import numpy as np
 import pytest
+from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene
 
 import volpath
-from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene
 from addon.export import ExportError, export_scene, write_directory
 from addon.export.animation import export_animation
 from addon.export.convert import BLENDER_TO_SCENE
@@ -46,7 +46,7 @@ def test_round_trip_camera_lights_meshes(blank, tmp_path):
     size = bpy.data.objects["Area"].data.size
     assert size > 0
     # P / (pi A): 200 W on a square of side `size`
-    assert area["emitter"]["radiance"]["value"] == pytest.approx([200 / (math.pi * size ** 2)] * 3, rel=1e-6)
+    assert area["emitter"]["radiance"]["value"] == pytest.approx([200 / (math.pi * size**2)] * 3, rel=1e-6)
     assert d["world"]["radiance"]["value"] == pytest.approx([0.1, 0.2, 0.4])
     # The written directory loads and describes the same scene.
     scene = volpath.load_file(write_directory(ex, tmp_path / "scene"))
@@ -92,11 +92,13 @@ def test_instances_share_arrays_and_modifiers_apply(blank):
 
 def test_materials_map_to_bsdfs_and_emitters(blank):
     add_camera(blank)
-    specs = {"glass": dict(Transmission_Weight=1.0, IOR=1.33),
-             "metal": dict(Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.2),
-             "lamp": dict(Emission_Color=(1, 0.5, 0.25, 1), Emission_Strength=4.0),
-             "plastic": dict(Base_Color=(0.2, 0.3, 0.4, 1)),
-             "matte": dict(Base_Color=(0.2, 0.3, 0.4, 1), Specular_IOR_Level=0.0)}
+    specs = {
+        "glass": dict(Transmission_Weight=1.0, IOR=1.33),
+        "metal": dict(Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.2),
+        "lamp": dict(Emission_Color=(1, 0.5, 0.25, 1), Emission_Strength=4.0),
+        "plastic": dict(Base_Color=(0.2, 0.3, 0.4, 1)),
+        "matte": dict(Base_Color=(0.2, 0.3, 0.4, 1), Specular_IOR_Level=0.0),
+    }
     for i, (name, inputs) in enumerate(specs.items()):
         bpy.ops.mesh.primitive_cube_add(location=(3 * i, 0, 0))
         bpy.context.object.name = name
@@ -106,7 +108,10 @@ def test_materials_map_to_bsdfs_and_emitters(blank):
     assert d["metal"]["bsdf"]["metallic"] == 1.0 and d["metal"]["bsdf"]["roughness"] == pytest.approx(0.2)
     assert d["lamp"]["emitter"]["radiance"]["value"] == pytest.approx([4, 2, 1])
     assert d["plastic"]["bsdf"]["eta"] == pytest.approx(1.5)  # IOR 1.5 at the default level 0.5
-    assert d["matte"]["bsdf"] == {"type": "diffuse", "reflectance": {"type": "rgb", "value": pytest.approx([0.2, 0.3, 0.4])}}
+    assert d["matte"]["bsdf"] == {
+        "type": "diffuse",
+        "reflectance": {"type": "rgb", "value": pytest.approx([0.2, 0.3, 0.4])},
+    }
 
 
 def test_unsupported_features_warn_in_the_render_report(blank, tmp_path, capfd):

@@ -12,7 +12,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-SCRIPT = textwrap.dedent('''
+SCRIPT = textwrap.dedent("""
     import json, os, sys
     os.environ["BLENDER_USER_RESOURCES"] = sys.argv[2]
     # Hide the development checkout: only the extension may provide Volpath.
@@ -42,7 +42,7 @@ SCRIPT = textwrap.dedent('''
     import pipeline.run  # what the video operator imports
     print(json.dumps({"volpath": volpath.__file__, "pipeline": pipeline.run.__file__,
                       "frames": frame_list(scene), "mean": float(image[..., :3].mean())}))
-''')
+""")
 
 
 @pytest.mark.xdist_group("native-build")  # shares build/wheel with the wheel test
@@ -53,8 +53,12 @@ def test_extension_installs_and_renders(tmp_path):
     assert zips == ["volpath-0.1.0-linux_x64.zip"]
     user = tmp_path / "user"
     user.mkdir()
-    r = subprocess.run([sys.executable, "-c", SCRIPT, os.path.join(ROOT, "dist", zips[0]), str(user), ROOT],
-                       cwd=tmp_path, capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-c", SCRIPT, os.path.join(ROOT, "dist", zips[0]), str(user), ROOT],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["volpath"].startswith(str(user / "extensions"))  # the bundled wheel

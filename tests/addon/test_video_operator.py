@@ -3,11 +3,11 @@
 import json
 import os
 
-import pytest
-
 import faults
-import volpath
+import pytest
 from blender_scenes import bpy, tiny_animation
+
+import volpath
 
 
 def _settings(tmp_path, resume=False, spp=2):

@@ -2,9 +2,18 @@
 
 import numpy as np
 import pytest
+from blender_scenes import (
+    add_camera,
+    add_volume,
+    bpy,
+    depsgraph,
+    render_f12,
+    set_background,
+    volume_material,
+    write_vdb,
+)
 
 import volpath
-from blender_scenes import add_camera, add_volume, bpy, depsgraph, render_f12, set_background, volume_material, write_vdb
 from addon.export import ExportError, export_scene, write_directory
 from addon.export.convert import BLENDER_TO_SCENE
 
@@ -16,8 +25,11 @@ def _cloud():
 
 def test_vdb_values_and_placement(blank, tmp_path):
     density = _cloud()
-    add_volume(write_vdb(tmp_path / "cloud.vdb", density, voxel_size=0.1, origin_index=(3, 0, 0)),
-               volume_material("smoke", density=4.0, color=(0.9, 0.8, 0.7)), location=(1, 2, 3))
+    add_volume(
+        write_vdb(tmp_path / "cloud.vdb", density, voxel_size=0.1, origin_index=(3, 0, 0)),
+        volume_material("smoke", density=4.0, color=(0.9, 0.8, 0.7)),
+        location=(1, 2, 3),
+    )
     add_camera(blank)
     d = export_scene(depsgraph()).scene
     cloud = d["cloud"]
@@ -41,7 +53,9 @@ def test_vdb_values_and_placement(blank, tmp_path):
 
 
 def test_vdb_scene_f12_equals_directory_render(blank, tmp_path):
-    add_volume(write_vdb(tmp_path / "cloud.vdb", _cloud() * 5), volume_material("smoke", density=3.0, color=(0.95,) * 3))
+    add_volume(
+        write_vdb(tmp_path / "cloud.vdb", _cloud() * 5), volume_material("smoke", density=3.0, color=(0.95,) * 3)
+    )
     add_camera(blank, location=(0.6, -3, 0.6), rotation=(np.pi / 2, 0, 0))
     set_background(blank, (1, 1, 1))
     blank.volpath.tracer = "null_scattering"
@@ -75,8 +89,11 @@ def test_vdb_sequence_follows_the_frame(blank, tmp_path):
     base = _cloud()
     for frame, scale in ((1, 1.0), (2, 3.0)):
         write_vdb(tmp_path / f"puff_{frame:04d}.vdb", base * scale)
-    bpy.ops.object.volume_import(filepath=str(tmp_path / "puff_0001.vdb"), directory=str(tmp_path),
-                                 files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}])
+    bpy.ops.object.volume_import(
+        filepath=str(tmp_path / "puff_0001.vdb"),
+        directory=str(tmp_path),
+        files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}],
+    )
     volume = bpy.context.object
     volume.data.materials.append(volume_material("smoke"))
     assert volume.data.is_sequence

@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 import pytest
+
+import scenes as S
 import volpath
 from volpath import _core
 from volpath.plugins.media import ATMOSPHERE_PRESETS, rayleigh_coefficient
@@ -12,21 +14,37 @@ from volpath.render import TRACERS
 from volpath.spectral import pass_wavelengths, white
 from volpath.testing import MIN_BATCHES, chi2_directions, max_z, render_batches
 
-import scenes as S
-
 R = 6360e3
 B = ATMOSPHERE_PRESETS["bruneton"]
 
 
-def air_scene(medium_params="", camera_origin="0, 1, 0", target="0, 1, -1", res=4, fov=30, spp=16, lights="",
-              max_depth=-1, up="0, 1, 0"):
-    cam = S.camera(res=res, fov=fov, origin=camera_origin, target=target, spp=spp, up=up,
-                   extra='<float name="far_clip" value="1e9"/>')
-    return volpath.load_string(S.scene(cam, f'<medium type="atmosphere" id="air">{medium_params}</medium>', lights,
-                                       max_depth=max_depth))
+def air_scene(
+    medium_params="",
+    camera_origin="0, 1, 0",
+    target="0, 1, -1",
+    res=4,
+    fov=30,
+    spp=16,
+    lights="",
+    max_depth=-1,
+    up="0, 1, 0",
+):
+    cam = S.camera(
+        res=res,
+        fov=fov,
+        origin=camera_origin,
+        target=target,
+        spp=spp,
+        up=up,
+        extra='<float name="far_clip" value="1e9"/>',
+    )
+    return volpath.load_string(
+        S.scene(cam, f'<medium type="atmosphere" id="air">{medium_params}</medium>', lights, max_depth=max_depth)
+    )
 
 
 # -- phase functions (oracle 4) --------------------------------------------------------------
+
 
 def test_phase_values_and_normalisation():
     from scipy.integrate import quad
@@ -36,8 +54,11 @@ def test_phase_values_and_normalisation():
     assert abs(_core.cornette_shanks_eval(0.76, -1.0) - 0.00718) < 1e-5
     mean_cos = quad(lambda mu: 2 * math.pi * mu * _core.cornette_shanks_eval(0.76, mu), -1, 1, epsabs=1e-12)[0]
     assert abs(mean_cos - 0.8098) < 1e-4
-    for f in (lambda mu: _core.rayleigh_eval(mu), lambda mu: _core.cornette_shanks_eval(0.76, mu),
-              lambda mu: _core.cornette_shanks_eval(0.8, mu)):
+    for f in (
+        lambda mu: _core.rayleigh_eval(mu),
+        lambda mu: _core.cornette_shanks_eval(0.76, mu),
+        lambda mu: _core.cornette_shanks_eval(0.8, mu),
+    ):
         assert abs(quad(lambda mu: 2 * math.pi * f(mu), -1, 1, epsabs=1e-12)[0] - 1) < 1e-9
 
 
@@ -54,6 +75,7 @@ def test_air_phase_sampling_chi2(channel):
 
 
 # -- planet intersection (oracle 5) -----------------------------------------------------------
+
 
 @pytest.mark.parametrize("elevation,expected", [(-1.0, 57.3135), (-0.1, 588.561)])
 def test_planet_intersection_from_one_metre(elevation, expected):
@@ -102,6 +124,7 @@ def test_horizon_distance():
 
 # -- transmittance (oracles 1, 2) --------------------------------------------------------------
 
+
 def vertical_tau(beta, H, top=60e3):
     return beta * H * (1 - math.exp(-top / H))
 
@@ -113,8 +136,11 @@ def test_vertical_transmittance_oracle():
     # R, G, B = 680, 550, 440 nm
     assert np.allclose(T, [0.9404, 0.8677, 0.7624], atol=1e-3)
     # The closed form, component by component (ozone's tent integrates to 15 km of peak).
-    closed = (vertical_tau(np.array(B["rayleigh_scattering"]), 8e3) + vertical_tau(4.44e-6, 1.2e3) +
-              np.array(B["ozone_absorption"]) * 15e3)
+    closed = (
+        vertical_tau(np.array(B["rayleigh_scattering"]), 8e3)
+        + vertical_tau(4.44e-6, 1.2e3)
+        + np.array(B["ozone_absorption"]) * 15e3
+    )
     assert np.allclose(tau, closed, rtol=1e-6)
 
 
@@ -133,19 +159,24 @@ def test_ratio_tracking_is_unbiased_through_the_atmosphere():
 
 def test_horizontal_air_mass():
     """Oracle 2: Chapman air masses at R = 6360 km, and the horizontal optical depth."""
-    scene = air_scene('<boolean name="ozone" value="false"/><rgb name="mie_extinction" value="0"/>'
-                      '<rgb name="mie_scattering" value="0"/><rgb name="rayleigh_scattering" value="1e-6"/>')
+    scene = air_scene(
+        '<boolean name="ozone" value="false"/><rgb name="mie_extinction" value="0"/>'
+        '<rgb name="mie_scattering" value="0"/><rgb name="rayleigh_scattering" value="1e-6"/>'
+    )
     roots = _core.sphere_roots((0, -R, 0), R + 60e3, (0, 0, 0), (1, 0, 0))
     tau = _core.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
     assert abs(tau / (1e-6 * 8e3) - 35.355) / 35.355 < 2e-3
-    scene = air_scene('<boolean name="ozone" value="false"/><float name="rayleigh_height" value="1200"/>'
-                      '<rgb name="mie_extinction" value="0"/><rgb name="mie_scattering" value="0"/>'
-                      '<rgb name="rayleigh_scattering" value="1e-6"/>')
+    scene = air_scene(
+        '<boolean name="ozone" value="false"/><float name="rayleigh_height" value="1200"/>'
+        '<rgb name="mie_extinction" value="0"/><rgb name="mie_scattering" value="0"/>'
+        '<rgb name="rayleigh_scattering" value="1e-6"/>'
+    )
     tau = _core.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
     assert abs(tau / (1e-6 * 1.2e3) - 91.249) / 91.249 < 2e-3
 
 
 # -- rendering ----------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("flight", ["tracking", "guided"])
 def test_single_scattering_at_the_zenith(flight):
@@ -154,11 +185,17 @@ def test_single_scattering_at_the_zenith(flight):
     The sun is a directional light here (a disc of 0.27 degrees changes L by < 0.1 %)."""
     from volpath.testing import render_batches
 
-    scene = air_scene(f'<string name="free_flight" value="{flight}"/>', camera_origin="0, 0.1, 0",
-                      target="0, 1, 0", up="0, 0, -1", fov=0.01, spp=16384 if flight == "tracking" else 64,
-                      max_depth=2,
-                      lights='<emitter type="directional"><vector name="direction" value="0, -1, 0"/>'
-                             '<rgb name="irradiance" value="1"/></emitter>')
+    scene = air_scene(
+        f'<string name="free_flight" value="{flight}"/>',
+        camera_origin="0, 0.1, 0",
+        target="0, 1, 0",
+        up="0, 0, -1",
+        fov=0.01,
+        spp=16384 if flight == "tracking" else 64,
+        max_depth=2,
+        lights='<emitter type="directional"><vector name="direction" value="0, -1, 0"/>'
+        '<rgb name="irradiance" value="1"/></emitter>',
+    )
     mean, se = render_batches(volpath.render, scene, 8, block=4)
     tau_r = vertical_tau(np.array(B["rayleigh_scattering"]), 8e3)
     tau_ms = vertical_tau(3.996e-6, 1.2e3)
@@ -182,9 +219,16 @@ def test_single_scattering_at_the_zenith(flight):
 
 def test_energy_is_conserved_in_a_furnace():
     """Oracle 6: ground albedo 1, no absorption, uniform unit sky: radiance 1 everywhere."""
-    scene = air_scene('<boolean name="ozone" value="false"/><float name="mie_extinction" value="3.996e-6"/>'
-                      '<rgb name="ground_albedo" value="1"/>', camera_origin="0, 10, 0", target="0, 9.9, -1",
-                      res=6, fov=60, spp=64, lights=S.constant_env("1, 1, 1"))
+    scene = air_scene(
+        '<boolean name="ozone" value="false"/><float name="mie_extinction" value="3.996e-6"/>'
+        '<rgb name="ground_albedo" value="1"/>',
+        camera_origin="0, 10, 0",
+        target="0, 9.9, -1",
+        res=6,
+        fov=60,
+        spp=64,
+        lights=S.constant_env("1, 1, 1"),
+    )
     image = volpath.render(scene, seed=1).astype(np.float64)
     assert np.all(np.isfinite(image))
     # Paths bounce between air and ground; 36 pixels x 64 spp. The spread per sample is
@@ -193,10 +237,16 @@ def test_energy_is_conserved_in_a_furnace():
 
 
 def sky_scene(elevation, target, fov=5, spp=256, res=4, mode="rgb"):
-    return air_scene(f'<string name="mode" value="{mode}"/>', camera_origin="0, 2, 0", target=target, fov=fov,
-                     spp=spp, res=res,
-                     lights=f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
-                            f'<float name="azimuth" value="180"/><rgb name="irradiance" value="1"/></emitter>')
+    return air_scene(
+        f'<string name="mode" value="{mode}"/>',
+        camera_origin="0, 2, 0",
+        target=target,
+        fov=fov,
+        spp=spp,
+        res=res,
+        lights=f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
+        f'<float name="azimuth" value="180"/><rgb name="irradiance" value="1"/></emitter>',
+    )
 
 
 @pytest.mark.parametrize("mode", ["rgb", "spectral"])
@@ -210,6 +260,7 @@ def test_noon_zenith_is_bluer_than_the_horizon(mode):
 @pytest.mark.parametrize("mode", ["rgb", "spectral"])
 def test_sun_disc_is_redder_at_sunrise(mode):
     """Seen through the whole air mass, the sun's disc loses blue first."""
+
     def disc(elevation):
         e = math.radians(elevation)
         target = f"{0}, {2 + math.sin(e)}, {math.cos(e)}"
@@ -225,9 +276,15 @@ def test_sun_disc_is_redder_at_sunrise(mode):
 @pytest.mark.parametrize("elevation", [-20, -2, 0, 5, 90])
 @pytest.mark.parametrize("altitude", [0.1, 1e4, 1e6])
 def test_no_nan_or_negative_anywhere(elevation, altitude):
-    scene = air_scene(camera_origin=f"0, {altitude}, 0", target=f"0, {altitude - 0.2}, -1", res=6, fov=120, spp=4,
-                      lights=f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
-                             '<rgb name="irradiance" value="1"/></emitter>')
+    scene = air_scene(
+        camera_origin=f"0, {altitude}, 0",
+        target=f"0, {altitude - 0.2}, -1",
+        res=6,
+        fov=120,
+        spp=4,
+        lights=f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
+        '<rgb name="irradiance" value="1"/></emitter>',
+    )
     image = volpath.render(scene, seed=3)
     assert np.all(np.isfinite(image)) and image.min() >= 0
     assert scene.last_render["nonfinite_samples"] == 0
@@ -242,7 +299,9 @@ def test_report_preset():
 
 # The sun out of view: camera rays that land on its 0.27-degree disc are too rare for a
 # z-test over a few batches.
-SUN_5_DEGREES_ASIDE = '<emitter type="sun"><float name="elevation" value="5"/><float name="azimuth" value="90"/></emitter>'
+SUN_5_DEGREES_ASIDE = (
+    '<emitter type="sun"><float name="elevation" value="5"/><float name="azimuth" value="90"/></emitter>'
+)
 
 
 def test_one_majorant_or_many_agree():
@@ -252,13 +311,18 @@ def test_one_majorant_or_many_agree():
 
     res = []
     for pieces in (1, 16):
-        scene = air_scene(f'<integer name="majorant_pieces" value="{pieces}"/>'
-                          '<string name="free_flight" value="tracking"/>', camera_origin="0, 2, 0",
-                          target="0, 2.2, -1", res=4, fov=40, spp=64,
-                          lights=SUN_5_DEGREES_ASIDE)
+        scene = air_scene(
+            f'<integer name="majorant_pieces" value="{pieces}"/><string name="free_flight" value="tracking"/>',
+            camera_origin="0, 2, 0",
+            target="0, 2.2, -1",
+            res=4,
+            fov=40,
+            spp=64,
+            lights=SUN_5_DEGREES_ASIDE,
+        )
         res.append(render_batches(volpath.render, scene, 6, block=2))
     (a, sa), (b, sb) = res
-    assert np.max(np.abs(a - b) / np.sqrt(sa ** 2 + sb ** 2 + 1e-12)) < 5
+    assert np.max(np.abs(a - b) / np.sqrt(sa**2 + sb**2 + 1e-12)) < 5
 
 
 def test_tabulated_and_ratio_tracked_sun_agree():
@@ -270,18 +334,25 @@ def test_tabulated_and_ratio_tracked_sun_agree():
 
     res = {}
     for method in ("tracking", "quadrature", "table"):
-        scene = air_scene(f'<string name="sun_transmittance" value="{method}"/>', camera_origin="0, 2, 0",
-                          target="0, 2.2, -1", res=4, fov=40, spp=64,
-                          lights=SUN_5_DEGREES_ASIDE)
+        scene = air_scene(
+            f'<string name="sun_transmittance" value="{method}"/>',
+            camera_origin="0, 2, 0",
+            target="0, 2.2, -1",
+            res=4,
+            fov=40,
+            spp=64,
+            lights=SUN_5_DEGREES_ASIDE,
+        )
         res[method] = render_batches(volpath.render, scene, 6, block=2)
     (a, sa) = res["tracking"]
     for method in ("quadrature", "table"):
         b, sb = res[method]
-        assert np.max(np.abs(a - b) / np.sqrt(sa ** 2 + sb ** 2 + 1e-12)) < 5, method
+        assert np.max(np.abs(a - b) / np.sqrt(sa**2 + sb**2 + 1e-12)) < 5, method
         assert np.mean(sb) < np.mean(sa), method
 
 
 # -- spectral mode ---------------------------------------------------------------------------
+
 
 def test_spectral_mode_changes_only_what_depends_on_wavelength():
     """Air without coefficients, a grey sphere under the sun and a grey sky: every spectral
@@ -289,15 +360,22 @@ def test_spectral_mode_changes_only_what_depends_on_wavelength():
     1, so spectral and RGB agree (z-tests on 4x4 blocks over 16 batches). The passes share
     the samples out: pass k renders samples 2k, 2k + 1 of 8, and with those alone it equals
     RGB's render of the same samples to rounding."""
+
     def render(mode, spp):
-        scene = air_scene(f'<string name="mode" value="{mode}"/><rgb name="rayleigh_scattering" value="0"/>'
-                          '<float name="mie_scattering" value="0"/><float name="mie_extinction" value="0"/>'
-                          '<boolean name="ozone" value="false"/><boolean name="ground" value="false"/>',
-                          camera_origin="0, 1, 5", target="0, 1, 0", res=8, fov=30, spp=8,
-                          lights='<shape type="sphere"><point name="center" value="0, 1, 0"/><bsdf type="diffuse">'
-                                 '<rgb name="reflectance" value="0.5"/></bsdf></shape>'
-                                 '<emitter type="sun"><float name="elevation" value="40"/><rgb name="irradiance" value="3"/>'
-                                 '</emitter>' + S.constant_env("0.2, 0.2, 0.2"))
+        scene = air_scene(
+            f'<string name="mode" value="{mode}"/><rgb name="rayleigh_scattering" value="0"/>'
+            '<float name="mie_scattering" value="0"/><float name="mie_extinction" value="0"/>'
+            '<boolean name="ozone" value="false"/><boolean name="ground" value="false"/>',
+            camera_origin="0, 1, 5",
+            target="0, 1, 0",
+            res=8,
+            fov=30,
+            spp=8,
+            lights='<shape type="sphere"><point name="center" value="0, 1, 0"/><bsdf type="diffuse">'
+            '<rgb name="reflectance" value="0.5"/></bsdf></shape>'
+            '<emitter type="sun"><float name="elevation" value="40"/><rgb name="irradiance" value="3"/>'
+            "</emitter>" + S.constant_env("0.2, 0.2, 0.2"),
+        )
         return scene
 
     rgb_scene, spectral_scene = render("rgb", 8), render("spectral", 8)
@@ -307,8 +385,7 @@ def test_spectral_mode_changes_only_what_depends_on_wavelength():
     assert spectral_scene.last_render["spp"] == 6 * 64 // MIN_BATCHES  # each batch's, all passes together
 
     def samples(native, first):  # two samples of every pixel, from sample index `first` on
-        return _core.render(native, 2, 5, 0, TRACERS.index("null_scattering"), -1, 5, 1000, True,
-                            first_sample=first)[0]
+        return _core.render(native, 2, 5, 0, TRACERS.index("null_scattering"), -1, 5, 1000, True, first_sample=first)[0]
 
     assert not np.allclose(samples(rgb_scene.native, 0), samples(rgb_scene.native, 2))
     for k, (native, lam) in enumerate(zip(spectral_scene.passes, pass_wavelengths(4))):
@@ -378,14 +455,18 @@ def test_bad_atmosphere_options_name_file_line_and_choices():
     SceneError naming the file position and what was expected."""
     import pytest
 
-    with pytest.raises(volpath.SceneError, match=r":\d+: .*'sun_transmittance' is 'exact', expected one of: "
-                                                 r"table, quadrature, tracking"):
+    with pytest.raises(
+        volpath.SceneError,
+        match=r":\d+: .*'sun_transmittance' is 'exact', expected one of: "
+        r"table, quadrature, tracking",
+    ):
         air_scene('<string name="sun_transmittance" value="exact"/>')
     with pytest.raises(volpath.SceneError, match=r":\d+: .*'spectral_passes' must be in 1..32"):
         air_scene('<integer name="spectral_passes" value="0"/>')
 
 
 # -- the guided free flight ------------------------------------------------------------------
+
 
 def ray_to_ground_or_top(o, d):
     """Distance from o along d to the ground if d meets it, else to the top of the air."""
@@ -430,8 +511,13 @@ def test_guided_collision_density_matches_its_samples():
     segment; checked on rays up, along the horizon, down to the ground and from space
     through the limb."""
     scene = air_scene(lights='<emitter type="sun"><float name="elevation" value="2"/></emitter>')
-    cases = [((0.0, 2.0, 0.0), 10), ((0.0, 2.0, 0.0), 0), ((0.0, 5e3, 0.0), -20), ((0.0, 1e3, 0.0), -1),
-             ((0.0, 70e3, -2000e3), -1.5)]
+    cases = [
+        ((0.0, 2.0, 0.0), 10),
+        ((0.0, 2.0, 0.0), 0),
+        ((0.0, 5e3, 0.0), -20),
+        ((0.0, 1e3, 0.0), -1),
+        ((0.0, 70e3, -2000e3), -1.5),
+    ]
     u = np.linspace(0.001, 0.999, 999)
     h = 1e-5
     for o, elevation in cases:
@@ -451,15 +537,23 @@ def test_guided_and_tracked_free_flights_agree():
     the guided one with less noise at sunrise."""
     from volpath.testing import max_z, render_batches
 
-    views = {"sunrise": dict(camera_origin="0, 2, 0", target="0.5, 2.3, -1", elevation=2),
-             "limb": dict(camera_origin="0, 400e3, 0", target="0, 399.94e3, -1", elevation=10)}
+    views = {
+        "sunrise": dict(camera_origin="0, 2, 0", target="0.5, 2.3, -1", elevation=2),
+        "limb": dict(camera_origin="0, 400e3, 0", target="0, 399.94e3, -1", elevation=10),
+    }
     for name, v in views.items():
         res = {}
         for flight in ("tracking", "guided"):
-            scene = air_scene(f'<string name="free_flight" value="{flight}"/>', camera_origin=v["camera_origin"],
-                              target=v["target"], res=4, fov=40, spp=64,
-                              lights=f'<emitter type="sun"><float name="elevation" value="{v["elevation"]}"/>'
-                                     '<float name="azimuth" value="120"/></emitter>')
+            scene = air_scene(
+                f'<string name="free_flight" value="{flight}"/>',
+                camera_origin=v["camera_origin"],
+                target=v["target"],
+                res=4,
+                fov=40,
+                spp=64,
+                lights=f'<emitter type="sun"><float name="elevation" value="{v["elevation"]}"/>'
+                '<float name="azimuth" value="120"/></emitter>',
+            )
             res[flight] = render_batches(volpath.render, scene, 6, block=2)
         (a, sa), (b, sb) = res["tracking"], res["guided"]
         assert max_z(a, sa, b, sb) < 5, name
@@ -477,14 +571,21 @@ def test_sun_disc_seen_through_a_medium_inside_the_air():
     the blue channel)."""
     fog = S.homogeneous("fog", "1e-3", "0.5") + (
         '<shape type="sphere"><point name="center" value="0, 2.1, -5"/><float name="radius" value="1"/>'
-        '<bsdf type="null"/><ref name="interior" id="fog"/><ref name="exterior" id="air"/></shape>')
+        '<bsdf type="null"/><ref name="interior" id="fog"/><ref name="exterior" id="air"/></shape>'
+    )
     e = math.radians(5)
 
     def disc(flight, medium):
-        scene = air_scene(f'<string name="free_flight" value="{flight}"/>', camera_origin="0, 2, 0",
-                          target=f"0, {2 + math.sin(e)}, {-math.cos(e)}", fov=1.0, res=8, spp=64,
-                          lights=medium + '<emitter type="sun"><float name="elevation" value="5"/>'
-                                          '<rgb name="irradiance" value="1"/></emitter>')
+        scene = air_scene(
+            f'<string name="free_flight" value="{flight}"/>',
+            camera_origin="0, 2, 0",
+            target=f"0, {2 + math.sin(e)}, {-math.cos(e)}",
+            fov=1.0,
+            res=8,
+            spp=64,
+            lights=medium + '<emitter type="sun"><float name="elevation" value="5"/>'
+            '<rgb name="irradiance" value="1"/></emitter>',
+        )
         renders = np.array([volpath.render(scene, seed=seed).reshape(-1, 3).mean(axis=0) for seed in range(8)])
         return renders.mean(axis=0), renders.std(axis=0, ddof=1) / np.sqrt(len(renders))
 
@@ -499,8 +600,11 @@ def test_sun_disc_seen_through_a_medium_inside_the_air():
 
 
 def test_guided_free_flight_needs_a_deterministic_sun():
-    with pytest.raises(volpath.SceneError, match=r":\d+: .*free_flight='guided'.*sun_transmittance 'table' or "
-                                                 r"'quadrature'"):
+    with pytest.raises(
+        volpath.SceneError,
+        match=r":\d+: .*free_flight='guided'.*sun_transmittance 'table' or "
+        r"'quadrature'",
+    ):
         air_scene('<string name="free_flight" value="guided"/><string name="sun_transmittance" value="tracking"/>')
     with pytest.raises(volpath.SceneError, match=r"'free_flight' is 'exact', expected one of: guided, tracking"):
         air_scene('<string name="free_flight" value="exact"/>')

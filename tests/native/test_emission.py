@@ -10,11 +10,10 @@ Le (1 - exp(-sigma_a d)) + T L_background.
 import numpy as np
 import pytest
 
+import scenes as S
 import volpath
 from volpath.grids import write_vol
 from volpath.testing import render_batches
-
-import scenes as S
 
 LE = np.array([2.0, 1.0, 0.5])
 SIGMA_A = np.array([0.5, 0.3, 0.2])
@@ -28,13 +27,18 @@ def _rgb(v):
 def _deep_medium(medium_xml):
     # The camera at the centre of a cube of half-size 40: at least 40 mean free paths (sigma_t >= 0.5)
     # to the boundary, where e^-20 of the background could leak in: negligible.
-    return S.scene(S.camera(res=4, fov=30, origin="0, 0, 0", target="0, 0, -1", spp=16, medium="m"),
-                   medium_xml, S.medium_cube("m", half=40.0))
+    return S.scene(
+        S.camera(res=4, fov=30, origin="0, 0, 0", target="0, 0, -1", spp=16, medium="m"),
+        medium_xml,
+        S.medium_cube("m", half=40.0),
+    )
 
 
 def _homogeneous():
-    return (f'<medium type="homogeneous" id="m"><rgb name="sigma_a" value="{_rgb(SIGMA_A)}"/>'
-            f'<rgb name="sigma_s" value="{_rgb(SIGMA_S)}"/><rgb name="radiance" value="{_rgb(LE)}"/></medium>')
+    return (
+        f'<medium type="homogeneous" id="m"><rgb name="sigma_a" value="{_rgb(SIGMA_A)}"/>'
+        f'<rgb name="sigma_s" value="{_rgb(SIGMA_S)}"/><rgb name="radiance" value="{_rgb(LE)}"/></medium>'
+    )
 
 
 def _grid(tmp_path):
@@ -42,13 +46,15 @@ def _grid(tmp_path):
     # the homogeneous answer. sigma_t is grey here (the grid has one density).
     write_vol(tmp_path / "d.vol", np.ones((3, 3, 3), np.float32))
     write_vol(tmp_path / "le.vol", np.broadcast_to(LE.astype(np.float32), (3, 3, 3, 3)))
-    return (f'<medium type="heterogeneous" id="m"><float name="scale" value="1.0"/>'
-            f'<volume type="gridvolume" name="density"><string name="filename" value="{tmp_path / "d.vol"}"/>'
-            f'<transform name="to_world"><translate value="-0.5, -0.5, -0.5"/><scale value="80"/></transform></volume>'
-            f'<rgb name="albedo" value="0.5, 0.7, 0.3"/>'
-            f'<volume type="gridvolume" name="radiance"><string name="filename" value="{tmp_path / "le.vol"}"/>'
-            f'<transform name="to_world"><translate value="-0.5, -0.5, -0.5"/><scale value="80"/></transform></volume>'
-            f'</medium>')
+    return (
+        f'<medium type="heterogeneous" id="m"><float name="scale" value="1.0"/>'
+        f'<volume type="gridvolume" name="density"><string name="filename" value="{tmp_path / "d.vol"}"/>'
+        f'<transform name="to_world"><translate value="-0.5, -0.5, -0.5"/><scale value="80"/></transform></volume>'
+        f'<rgb name="albedo" value="0.5, 0.7, 0.3"/>'
+        f'<volume type="gridvolume" name="radiance"><string name="filename" value="{tmp_path / "le.vol"}"/>'
+        f'<transform name="to_world"><translate value="-0.5, -0.5, -0.5"/><scale value="80"/></transform></volume>'
+        f"</medium>"
+    )
 
 
 @pytest.mark.parametrize("tracer", ["multiple", "nee_mis", "null_scattering"])
@@ -80,10 +86,13 @@ def test_grid_emission_matches_the_homogeneous_answer(tmp_path):
 
 def test_emitting_slab_closed_form():
     sa = np.array([0.3, 0.6, 1.2])
-    xml = S.scene(S.camera(res=4, fov=1, spp=4),
-                  f'<medium type="homogeneous" id="m"><rgb name="sigma_a" value="{_rgb(sa)}"/>'
-                  f'<rgb name="sigma_s" value="0, 0, 0"/><rgb name="radiance" value="{_rgb(LE)}"/></medium>',
-                  S.medium_cube("m"), S.constant_env("0.1, 0.1, 0.1"))
+    xml = S.scene(
+        S.camera(res=4, fov=1, spp=4),
+        f'<medium type="homogeneous" id="m"><rgb name="sigma_a" value="{_rgb(sa)}"/>'
+        f'<rgb name="sigma_s" value="0, 0, 0"/><rgb name="radiance" value="{_rgb(LE)}"/></medium>',
+        S.medium_cube("m"),
+        S.constant_env("0.1, 0.1, 0.1"),
+    )
     scene = volpath.load_string(xml)
     expected = LE * (1 - np.exp(-2 * sa)) + 0.1 * np.exp(-2 * sa)
     for tracer in volpath.TRACERS:
@@ -96,15 +105,17 @@ def test_blackbody_temperature_grid(tmp_path):
 
     write_vol(tmp_path / "d.vol", np.ones((2, 2, 2), np.float32))
     write_vol(tmp_path / "t.vol", np.full((2, 2, 2), 1500.0, np.float32))
-    xml = S.scene(S.camera(res=4, fov=1, spp=4),
-                  f'<medium type="heterogeneous" id="m"><float name="scale" value="1.0"/>'
-                  f'<volume type="gridvolume" name="density"><string name="filename" value="{tmp_path / "d.vol"}"/>'
-                  f'<transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>'
-                  f'<float name="albedo" value="0"/>'
-                  f'<volume type="gridvolume" name="temperature"><string name="filename" value="{tmp_path / "t.vol"}"/>'
-                  f'<transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>'
-                  f'<float name="blackbody_scale" value="0.01"/></medium>',
-                  S.medium_cube("m"))
+    xml = S.scene(
+        S.camera(res=4, fov=1, spp=4),
+        f'<medium type="heterogeneous" id="m"><float name="scale" value="1.0"/>'
+        f'<volume type="gridvolume" name="density"><string name="filename" value="{tmp_path / "d.vol"}"/>'
+        f'<transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>'
+        f'<float name="albedo" value="0"/>'
+        f'<volume type="gridvolume" name="temperature"><string name="filename" value="{tmp_path / "t.vol"}"/>'
+        f'<transform name="to_world"><scale value="2"/><translate value="-1, -1, -1"/></transform></volume>'
+        f'<float name="blackbody_scale" value="0.01"/></medium>',
+        S.medium_cube("m"),
+    )
     scene = volpath.load_string(xml)
     # A blackbody slab of optical thickness 2, nothing behind it: B(T) (1 - e^-2), by ratio tracking.
     expected = 0.01 * blackbody_rgb(1500.0) * (1 - np.exp(-2.0))
@@ -114,8 +125,11 @@ def test_blackbody_temperature_grid(tmp_path):
 
 
 def test_radiance_without_absorption_is_an_error():
-    xml = S.scene(S.camera(), '<medium type="homogeneous" id="m"><rgb name="sigma_a" value="0, 0, 0"/>'
-                  '<rgb name="sigma_s" value="1, 1, 1"/><rgb name="radiance" value="1, 1, 1"/></medium>',
-                  S.medium_cube("m"))
+    xml = S.scene(
+        S.camera(),
+        '<medium type="homogeneous" id="m"><rgb name="sigma_a" value="0, 0, 0"/>'
+        '<rgb name="sigma_s" value="1, 1, 1"/><rgb name="radiance" value="1, 1, 1"/></medium>',
+        S.medium_cube("m"),
+    )
     with pytest.raises(volpath.SceneError, match="'radiance' needs absorption"):
         volpath.load_string(xml)

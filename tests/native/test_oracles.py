@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 import pytest
-import volpath
-from volpath.testing import render_batches
 
 import scenes as S
+import volpath
+from volpath.testing import render_batches
 
 SCATTERING_TRACERS = ["multiple", "nee_mis", "null_scattering"]
 
@@ -24,7 +24,7 @@ def expected_absorption(res, fov, sigma_t, cam_z=5.0, radius=1.0, sub=24):
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     o = np.array([0, 0, cam_z])
     b = d @ o
-    disc = b ** 2 - (o @ o - radius ** 2)
+    disc = b**2 - (o @ o - radius**2)
     chord = 2 * np.sqrt(np.maximum(disc, 0))
     T = np.exp(-sigma_t * chord)
     T = T.reshape(res, sub, res, sub)
@@ -34,8 +34,12 @@ def expected_absorption(res, fov, sigma_t, cam_z=5.0, radius=1.0, sub=24):
 @pytest.mark.parametrize("tracer", volpath.TRACERS)
 def test_absorbing_sphere_matches_closed_form(tracer):
     res, fov, sigma_t, spp = 24, 30, 1.5, 64
-    xml = S.scene(S.camera(res=res, fov=fov, spp=spp), S.homogeneous("m", f"{sigma_t}", "0"),
-                  S.medium_sphere("m"), S.back_light(z=-3, size=10))
+    xml = S.scene(
+        S.camera(res=res, fov=fov, spp=spp),
+        S.homogeneous("m", f"{sigma_t}", "0"),
+        S.medium_sphere("m"),
+        S.back_light(z=-3, size=10),
+    )
     scene = volpath.load_string(xml)
     image = volpath.render(scene, tracer=tracer, seed=3)
     mean, spread = expected_absorption(res, fov, sigma_t)
@@ -52,14 +56,18 @@ def test_absorbing_sphere_matches_closed_form(tracer):
 @pytest.mark.parametrize("tracer", SCATTERING_TRACERS)
 def test_white_furnace_homogeneous(tracer):
     """An albedo-1 medium under a uniform unit environment returns exactly 1 everywhere."""
-    xml = S.scene(S.camera(res=8, fov=40, spp=32), S.homogeneous("m", "2, 0.5, 4", "1", g=0.6),
-                  S.medium_sphere("m"), S.constant_env("1, 1, 1"))
+    xml = S.scene(
+        S.camera(res=8, fov=40, spp=32),
+        S.homogeneous("m", "2, 0.5, 4", "1", g=0.6),
+        S.medium_sphere("m"),
+        S.constant_env("1, 1, 1"),
+    )
     scene = volpath.load_string(xml)
     mean, se = render_batches(volpath.render, scene, 4, tracer=tracer)
     assert np.all(np.isfinite(mean))
     # Pixel means over 4 x 32 spp (as 16 batches); 5 standard errors of the whole-image mean.
     image_mean = mean.mean(axis=(0, 1))
-    image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
+    image_se = np.sqrt((se**2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
     assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)
 
 
@@ -71,23 +79,29 @@ def test_white_furnace_heterogeneous_grid(tmp_path):
     from volpath.grids import write_vol
 
     write_vol(volpath_grid, density)
-    xml = S.scene(S.camera(res=8, fov=40, spp=32), """
+    xml = S.scene(
+        S.camera(res=8, fov=40, spp=32),
+        """
         <medium type="heterogeneous" id="m">
             <volume type="gridvolume" name="sigma_t"><string name="filename" value="d.vol"/>
                 <transform name="to_world"><translate value="-0.5"/><scale value="2"/></transform></volume>
             <float name="albedo" value="1"/><float name="scale" value="3"/>
-        </medium>""", S.medium_cube("m"), S.constant_env())
+        </medium>""",
+        S.medium_cube("m"),
+        S.constant_env(),
+    )
     scene = volpath.load_string(xml, base_dir=str(tmp_path))
     mean, se = render_batches(volpath.render, scene, 4, tracer="null_scattering")
     image_mean = mean.mean(axis=(0, 1))
-    image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
+    image_se = np.sqrt((se**2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
     assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)
 
 
 def test_energy_is_not_gained_with_absorption():
     """With albedo < 1 the furnace must return less than the environment."""
-    xml = S.scene(S.camera(res=8, fov=40, spp=64), S.homogeneous("m", "3", "0.8"),
-                  S.medium_sphere("m"), S.constant_env())
+    xml = S.scene(
+        S.camera(res=8, fov=40, spp=64), S.homogeneous("m", "3", "0.8"), S.medium_sphere("m"), S.constant_env()
+    )
     scene = volpath.load_string(xml)
     for tracer in SCATTERING_TRACERS:
         image = volpath.render(scene, tracer=tracer)
@@ -102,8 +116,12 @@ def test_camera_inside_an_absorbing_medium(tracer):
     Mitsuba, rays start at the near clipping plane (0.01), so the medium before it is
     not traversed."""
     sigma_t = 0.3
-    xml = S.scene(S.camera(res=8, fov=10, spp=4, medium="m"), S.homogeneous("m", f"{sigma_t}", "0"),
-                  S.medium_sphere("m", radius=50), S.back_light(z=1, size=20))
+    xml = S.scene(
+        S.camera(res=8, fov=10, spp=4, medium="m"),
+        S.homogeneous("m", f"{sigma_t}", "0"),
+        S.medium_sphere("m", radius=50),
+        S.back_light(z=1, size=20),
+    )
     image = volpath.render(volpath.load_string(xml), tracer=tracer)
     # Rays at up to 7 degrees off-axis travel 4/cos(theta) to the plane z = 1.
     t = math.tan(math.radians(5)) * math.sqrt(2)
@@ -113,11 +131,15 @@ def test_camera_inside_an_absorbing_medium(tracer):
 
 def test_nested_media_boundaries():
     """An absorbing sphere nested in another: transmittance multiplies along the ray."""
-    xml = S.scene(S.camera(res=8, fov=2, spp=4), S.homogeneous("outer", "0.5", "0"), S.homogeneous("inner", "2", "0"),
-                  S.medium_sphere("outer", radius=2),
-                  '<shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>'
-                  '<ref name="interior" id="inner"/><ref name="exterior" id="outer"/></shape>',
-                  S.back_light(z=-3, size=10))
+    xml = S.scene(
+        S.camera(res=8, fov=2, spp=4),
+        S.homogeneous("outer", "0.5", "0"),
+        S.homogeneous("inner", "2", "0"),
+        S.medium_sphere("outer", radius=2),
+        '<shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>'
+        '<ref name="interior" id="inner"/><ref name="exterior" id="outer"/></shape>',
+        S.back_light(z=-3, size=10),
+    )
     image = volpath.render(volpath.load_string(xml), tracer="absorption")
     expected = math.exp(-0.5 * 2 - 2 * 2)  # 2 units of outer, 2 of inner along the axis
     assert abs(image[4, 4, 0] - expected) / expected < 1e-3
@@ -127,10 +149,14 @@ def test_nested_media_boundaries():
 def test_white_furnace_with_the_camera_inside(tracer):
     """A camera inside a chromatic albedo-1 medium splits its first segment into a
     no-collision and a forced-collision branch; together they still return exactly 1."""
-    xml = S.scene(S.camera(res=8, fov=60, spp=32, origin="0, 0, 0.5", medium="m"),
-                  S.homogeneous("m", "1, 2, 4", "1", g=0.5), S.medium_sphere("m", radius=2), S.constant_env())
+    xml = S.scene(
+        S.camera(res=8, fov=60, spp=32, origin="0, 0, 0.5", medium="m"),
+        S.homogeneous("m", "1, 2, 4", "1", g=0.5),
+        S.medium_sphere("m", radius=2),
+        S.constant_env(),
+    )
     scene = volpath.load_string(xml)
     mean, se = render_batches(volpath.render, scene, 4, tracer=tracer)
     image_mean = mean.mean(axis=(0, 1))
-    image_se = np.sqrt((se ** 2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
+    image_se = np.sqrt((se**2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
     assert np.all(np.abs(image_mean - 1) <= 5 * image_se + 1e-6), (image_mean, image_se)

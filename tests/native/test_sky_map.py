@@ -4,22 +4,36 @@ variates rely on against quadrature, and the sky they render against delta track
 
 import numpy as np
 import pytest
+
+import scenes as S
 import volpath
 from volpath import _core
 from volpath.testing import chi2_directions, max_z, render_batches
 
-import scenes as S
-
 R = 6360e3
 
 
-def sky(elevation=2.0, origin="0, 2, 0", target="0.5, 2.3, -1", res=8, fov=40, spp=16, max_depth=-1,
-        flight="guided", azimuth=120, extra=""):
+def sky(
+    elevation=2.0,
+    origin="0, 2, 0",
+    target="0.5, 2.3, -1",
+    res=8,
+    fov=40,
+    spp=16,
+    max_depth=-1,
+    flight="guided",
+    azimuth=120,
+    extra="",
+):
     """The Bruneton air alone (ground and top spheres), one sun, and `extra` shapes."""
-    cam = S.camera(res=res, fov=fov, origin=origin, target=target, spp=spp, extra='<float name="far_clip" value="1e9"/>')
+    cam = S.camera(
+        res=res, fov=fov, origin=origin, target=target, spp=spp, extra='<float name="far_clip" value="1e9"/>'
+    )
     air = f'<medium type="atmosphere" id="air"><string name="free_flight" value="{flight}"/></medium>'
-    sun = (f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
-           f'<float name="azimuth" value="{azimuth}"/></emitter>')
+    sun = (
+        f'<emitter type="sun"><float name="elevation" value="{elevation}"/>'
+        f'<float name="azimuth" value="{azimuth}"/></emitter>'
+    )
     return volpath.load_string(S.scene(cam, air, sun, extra, max_depth=max_depth))
 
 
@@ -45,7 +59,7 @@ def sphere_grid(n_z, n_phi):
     z = (np.arange(n_z) + 0.5) / n_z * 2 - 1
     phi = (np.arange(n_phi) + 0.5) / n_phi * 2 * np.pi - np.pi
     Z, P = np.meshgrid(z, phi, indexing="ij")
-    r = np.sqrt(1 - Z ** 2)
+    r = np.sqrt(1 - Z**2)
     dirs = np.stack([r * np.cos(P), Z, r * np.sin(P)], axis=-1).reshape(-1, 3)
     return dirs, (2 / n_z) * (2 * np.pi / n_phi)
 
@@ -89,7 +103,7 @@ def test_rayleigh_integral_is_the_maps_integral(p, d_in):
     dirs, cell = sphere_grid(6000, 720)
     out = sky_map(scene, p, d_in=d_in, dirs=dirs)
     mu = dirs @ (np.asarray(d_in, float) / np.linalg.norm(d_in))
-    p_rayleigh = 3 / (16 * np.pi) * (1 + mu ** 2)
+    p_rayleigh = 3 / (16 * np.pi) * (1 + mu**2)
     numeric = (out["radiance"] * p_rayleigh[:, None]).sum(axis=0) * cell
     assert np.allclose(out["rayleigh_integral"], numeric, rtol=3e-3), (out["rayleigh_integral"], numeric)
 
@@ -110,9 +124,16 @@ def test_segment_light_integral_is_the_models_integral(with_map, elevation):
 
 def test_sky_map_can_be_turned_off():
     """sky_map="false" (for the accuracy study) builds no map: the air is guided as before."""
-    cam = S.camera(res=4, fov=40, origin="0, 2, 0", target="0, 2.3, -1", spp=4, extra='<float name="far_clip" value="1e9"/>')
-    scene = volpath.load_string(S.scene(cam, '<medium type="atmosphere" id="air"><boolean name="sky_map" value="false"/>'
-                                             '</medium>', '<emitter type="sun"><float name="elevation" value="5"/></emitter>'))
+    cam = S.camera(
+        res=4, fov=40, origin="0, 2, 0", target="0, 2.3, -1", spp=4, extra='<float name="far_clip" value="1e9"/>'
+    )
+    scene = volpath.load_string(
+        S.scene(
+            cam,
+            '<medium type="atmosphere" id="air"><boolean name="sky_map" value="false"/></medium>',
+            '<emitter type="sun"><float name="elevation" value="5"/></emitter>',
+        )
+    )
     with pytest.raises(ValueError, match="no sky map"):
         sky_map(scene, (0, 2, 0))
     assert np.all(np.isfinite(volpath.render(scene)))
@@ -150,9 +171,9 @@ def guided_agrees_with_tracking(**scene):
     (a, sa), (b, sb) = res["tracking"], res["guided"]
     assert max_z(a, sa, b, sb) < 5
     mean_a, mean_b = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
-    se_a = np.sqrt((sa ** 2).sum(axis=(0, 1))) / sa[..., 0].size
-    se_b = np.sqrt((sb ** 2).sum(axis=(0, 1))) / sb[..., 0].size
-    assert np.all(np.abs(mean_a - mean_b) < 4 * np.sqrt(se_a ** 2 + se_b ** 2)), (mean_a, mean_b, se_a, se_b)
+    se_a = np.sqrt((sa**2).sum(axis=(0, 1))) / sa[..., 0].size
+    se_b = np.sqrt((sb**2).sum(axis=(0, 1))) / sb[..., 0].size
+    assert np.all(np.abs(mean_a - mean_b) < 4 * np.sqrt(se_a**2 + se_b**2)), (mean_a, mean_b, se_a, se_b)
     return sa, sb
 
 
@@ -209,17 +230,22 @@ def test_an_animated_sun_and_camera_give_the_bits_of_a_fresh_load():
     refused and leaves the scene as it was."""
     from volpath.xml_reader import read_xml
 
-    cam = S.camera(res=8, fov=40, origin="0, 2, 0", target="0.3, 2.1, -1", spp=2,
-                   extra='<float name="far_clip" value="1e9"/>')
+    cam = S.camera(
+        res=8, fov=40, origin="0, 2, 0", target="0.3, 2.1, -1", spp=2, extra='<float name="far_clip" value="1e9"/>'
+    )
     air = '<medium type="atmosphere" id="air"/>'
-    d = read_xml(S.scene(cam, air, '<emitter type="sun"><float name="elevation" value="2"/></emitter>', HILL_AND_FOG),
-                 "<test>")
+    d = read_xml(
+        S.scene(cam, air, '<emitter type="sun"><float name="elevation" value="2"/></emitter>', HILL_AND_FOG), "<test>"
+    )
     scene = volpath.load_dict(d)
     levels = sky_map(scene, (0, 2, 0))["levels"]
     turned = np.array(d["sensor"]["to_world"])
     turned[:3, 3] += (40, 5, 0)
-    for elevation, to_world, same_levels in ((2.4, d["sensor"]["to_world"], True), (2.6, turned, True),
-                                             (12, turned, False)):
+    for elevation, to_world, same_levels in (
+        (2.4, d["sensor"]["to_world"], True),
+        (2.6, turned, True),
+        (12, turned, False),
+    ):
         frame = dict(d, emitter=dict(d["emitter"], elevation=elevation), sensor=dict(d["sensor"], to_world=to_world))
         assert scene.update(frame)
         assert scene.summary["emitters"][0]["to_sun"][1] == pytest.approx(np.sin(np.radians(elevation)))
@@ -227,7 +253,8 @@ def test_an_animated_sun_and_camera_give_the_bits_of_a_fresh_load():
         fresh = volpath.load_dict(frame)
         assert np.array_equal(volpath.render(scene, seed=3), volpath.render(fresh, seed=3)), elevation
     before = volpath.render(scene, seed=4)
-    moved_hill = {k: (dict(v) if v.get("__kind__") == "shape" else v) if isinstance(v, dict) else v
-                  for k, v in frame.items()}
+    moved_hill = {
+        k: (dict(v) if v.get("__kind__") == "shape" else v) if isinstance(v, dict) else v for k, v in frame.items()
+    }
     assert not scene.update(moved_hill)
     assert np.array_equal(volpath.render(scene, seed=4), before)

@@ -10,10 +10,10 @@ of a few percent is caught.
 
 import numpy as np
 import pytest
-import volpath
-from volpath.testing import max_z, render_batches
 
 import scenes as S
+import volpath
+from volpath.testing import max_z, render_batches
 
 Z_MAX = 5.0
 
@@ -25,8 +25,15 @@ def compare(scene, tracer_a, tracer_b, batches=6, **kwargs):
 
 
 def test_single_equals_nee_mis_at_depth_two():
-    xml = S.scene(S.camera(res=16, spp=32), S.homogeneous("m", "1.5, 1, 0.5", "0.8, 0.6, 0.9", g=0.4),
-                  S.medium_sphere("m"), S.floor(), S.area_light_above(), S.point_light(), S.constant_env("0.2, 0.2, 0.3"))
+    xml = S.scene(
+        S.camera(res=16, spp=32),
+        S.homogeneous("m", "1.5, 1, 0.5", "0.8, 0.6, 0.9", g=0.4),
+        S.medium_sphere("m"),
+        S.floor(),
+        S.area_light_above(),
+        S.point_light(),
+        S.constant_env("0.2, 0.2, 0.3"),
+    )
     scene = volpath.load_string(xml)
     assert compare(scene, "single", "nee_mis", max_depth=2) < Z_MAX
 
@@ -34,9 +41,14 @@ def test_single_equals_nee_mis_at_depth_two():
 @pytest.mark.parametrize("pair", [("multiple", "nee_mis"), ("nee_mis", "null_scattering")])
 def test_grey_homogeneous_scene_agrees(pair):
     # No delta lights: phase sampling alone (multiple) must find all the light too.
-    xml = S.scene(S.camera(res=16, spp=48), S.homogeneous("m", "2", "0.9", g=0.5),
-                  S.medium_sphere("m"), S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"),
-                  S.constant_env("0.3, 0.3, 0.3"))
+    xml = S.scene(
+        S.camera(res=16, spp=48),
+        S.homogeneous("m", "2", "0.9", g=0.5),
+        S.medium_sphere("m"),
+        S.floor(),
+        S.area_light_above(size=1.0, radiance="5, 5, 5"),
+        S.constant_env("0.3, 0.3, 0.3"),
+    )
     scene = volpath.load_string(xml)
     assert compare(scene, *pair) < Z_MAX
 
@@ -47,8 +59,14 @@ def test_shadow_ray_roulette_agrees():
     (multiple) must find the same light through the slab."""
     slab = """<shape type="cube"><transform name="to_world"><scale x="2" y="0.1" z="2"/><translate y="1.5"/></transform>
         <bsdf type="null"/><ref name="interior" id="ink"/></shape>"""
-    xml = S.scene(S.camera(res=16, spp=256), S.homogeneous("m", "0.5", "0.9"), S.homogeneous("ink", "20", "0"),
-                  S.medium_sphere("m"), slab, S.area_light_above(y=2.5, size=1.5, radiance="60, 60, 60"))
+    xml = S.scene(
+        S.camera(res=16, spp=256),
+        S.homogeneous("m", "0.5", "0.9"),
+        S.homogeneous("ink", "20", "0"),
+        S.medium_sphere("m"),
+        slab,
+        S.area_light_above(y=2.5, size=1.5, radiance="60, 60, 60"),
+    )
     scene = volpath.load_string(xml)
     assert compare(scene, "multiple", "nee_mis") < Z_MAX
 
@@ -60,18 +78,33 @@ def test_chromatic_homogeneous_agrees_with_grid_of_same_density(tmp_path):
 
     sigma_t, albedo = (3.0, 1.0, 0.4), (0.9, 0.5, 0.99)
     write_vol(tmp_path / "c.vol", np.tile(np.array(sigma_t, np.float32), (4, 4, 4, 1)))
-    common = [S.camera(res=16, spp=32), S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"),
-              S.point_light("1.5, 1.5, 2", "4, 4, 4")]
-    homog = volpath.load_string(S.scene(*common, S.homogeneous("m", ", ".join(map(str, sigma_t)),
-                                                               ", ".join(map(str, albedo)), g=0.3),
-                                        S.medium_cube("m", 0.8)))
-    grid = volpath.load_string(S.scene(*common, f"""
+    common = [
+        S.camera(res=16, spp=32),
+        S.floor(),
+        S.area_light_above(size=1.0, radiance="5, 5, 5"),
+        S.point_light("1.5, 1.5, 2", "4, 4, 4"),
+    ]
+    homog = volpath.load_string(
+        S.scene(
+            *common,
+            S.homogeneous("m", ", ".join(map(str, sigma_t)), ", ".join(map(str, albedo)), g=0.3),
+            S.medium_cube("m", 0.8),
+        )
+    )
+    grid = volpath.load_string(
+        S.scene(
+            *common,
+            f"""
         <medium type="heterogeneous" id="m">
             <volume type="gridvolume" name="sigma_t"><string name="filename" value="c.vol"/>
                 <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
-            <rgb name="albedo" value="{', '.join(map(str, albedo))}"/>
+            <rgb name="albedo" value="{", ".join(map(str, albedo))}"/>
             <phase type="hg"><float name="g" value="0.3"/></phase>
-        </medium>""", S.medium_cube("m", 0.8)), base_dir=str(tmp_path))
+        </medium>""",
+            S.medium_cube("m", 0.8),
+        ),
+        base_dir=str(tmp_path),
+    )
     a = render_batches(volpath.render, homog, 6, block=4, tracer="nee_mis")
     b = render_batches(volpath.render, grid, 6, block=4, tracer="null_scattering")
     assert max_z(a[0], a[1], b[0], b[1]) < Z_MAX
@@ -94,16 +127,25 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
     write_vol(tmp_path / "g.vol", data)
 
     def scene(majorant_res):
-        return volpath.load_string(S.scene(
-            S.camera(res=16, spp=32), S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"),
-            S.constant_env("0.3, 0.3, 0.4"), SUN, f"""
+        return volpath.load_string(
+            S.scene(
+                S.camera(res=16, spp=32),
+                S.floor(),
+                S.area_light_above(size=1.0, radiance="5, 5, 5"),
+                S.constant_env("0.3, 0.3, 0.4"),
+                SUN,
+                f"""
             <medium type="heterogeneous" id="m">
                 <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
                     <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
                 <rgb name="albedo" value="0.9, 0.6, 0.95"/>
                 <integer name="majorant_resolution" value="{majorant_res}"/>
                 <phase type="hg"><float name="g" value="0.3"/></phase>
-            </medium>""", S.medium_cube("m", 0.8)), base_dir=str(tmp_path))
+            </medium>""",
+                S.medium_cube("m", 0.8),
+            ),
+            base_dir=str(tmp_path),
+        )
 
     a = render_batches(volpath.render, scene(1), 6, block=4, tracer="null_scattering")
     b = render_batches(volpath.render, scene(12), 6, block=4, tracer="null_scattering")
@@ -112,11 +154,16 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
 
 def test_dielectric_sphere_with_medium_inside():
     """Refraction into a medium: nee_mis and multiple agree through a specular interface."""
-    xml = S.scene(S.camera(res=16, spp=64), S.homogeneous("m", "1", "0.9"),
-                  """<shape type="sphere"><float name="radius" value="1"/>
+    xml = S.scene(
+        S.camera(res=16, spp=64),
+        S.homogeneous("m", "1", "0.9"),
+        """<shape type="sphere"><float name="radius" value="1"/>
                      <bsdf type="dielectric"><float name="int_ior" value="1.33"/></bsdf>
                      <ref name="interior" id="m"/></shape>""",
-                  S.floor(), S.area_light_above(size=1.5, radiance="3, 3, 3"), S.constant_env("0.5, 0.5, 0.5"))
+        S.floor(),
+        S.area_light_above(size=1.5, radiance="3, 3, 3"),
+        S.constant_env("0.5, 0.5, 0.5"),
+    )
     scene = volpath.load_string(xml)
     assert compare(scene, "multiple", "nee_mis", max_depth=12) < Z_MAX
 
@@ -125,9 +172,13 @@ def test_heterogeneous_media_need_null_scattering(tmp_path):
     from volpath.grids import write_vol
 
     write_vol(tmp_path / "g.vol", np.ones((2, 2, 2)))
-    xml = S.scene(S.camera(res=8, spp=4), """<medium type="heterogeneous" id="m">
+    xml = S.scene(
+        S.camera(res=8, spp=4),
+        """<medium type="heterogeneous" id="m">
         <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/></volume></medium>""",
-                  S.medium_cube("m"), S.constant_env())
+        S.medium_cube("m"),
+        S.constant_env(),
+    )
     scene = volpath.load_string(xml, base_dir=str(tmp_path))
     with pytest.raises(ValueError, match="null_scattering"):
         volpath.render(scene, tracer="nee_mis")
@@ -136,9 +187,13 @@ def test_heterogeneous_media_need_null_scattering(tmp_path):
 
 def test_camera_inside_a_scattering_medium_agrees():
     """The split camera segment with MIS (nee_mis) against phase sampling alone."""
-    xml = S.scene(S.camera(res=16, spp=64, origin="0, 0, 2.5", medium="fog"),
-                  S.homogeneous("fog", "0.3, 0.5, 0.8", "0.9", g=0.4), S.medium_sphere("fog", radius=4),
-                  S.floor(), S.area_light_above(size=1.0, radiance="5, 5, 5"))
+    xml = S.scene(
+        S.camera(res=16, spp=64, origin="0, 0, 2.5", medium="fog"),
+        S.homogeneous("fog", "0.3, 0.5, 0.8", "0.9", g=0.4),
+        S.medium_sphere("fog", radius=4),
+        S.floor(),
+        S.area_light_above(size=1.0, radiance="5, 5, 5"),
+    )
     scene = volpath.load_string(xml)
     assert compare(scene, "multiple", "nee_mis") < Z_MAX
 
@@ -157,19 +212,40 @@ SUN = '<emitter type="directional"><vector name="direction" value="-0.3, -1, -0.
 # diverges (1/D for paths passing at distance D), which would void the z-tests' errors.
 LIGHT_DISTANCE_SCENES = {
     "camera_outside": lambda: S.scene(
-        S.camera(res=16, spp=16), S.homogeneous("m", "1.5, 1, 0.5", "0.8, 0.6, 0.9", g=0.4),
-        S.medium_sphere("m", 1.2), S.floor(), S.point_light("1.3, -0.5, 0.8", "2, 1.5, 1"), S.point_light(), SUN,
-        S.area_light_above(size=1.0, radiance="5, 5, 5"), S.constant_env("0.2, 0.2, 0.3"), max_depth=6),
+        S.camera(res=16, spp=16),
+        S.homogeneous("m", "1.5, 1, 0.5", "0.8, 0.6, 0.9", g=0.4),
+        S.medium_sphere("m", 1.2),
+        S.floor(),
+        S.point_light("1.3, -0.5, 0.8", "2, 1.5, 1"),
+        S.point_light(),
+        SUN,
+        S.area_light_above(size=1.0, radiance="5, 5, 5"),
+        S.constant_env("0.2, 0.2, 0.3"),
+        max_depth=6,
+    ),
     "camera_inside": lambda: S.scene(
         S.camera(res=16, spp=16, medium="m", origin="0, 0, 2.5"),
-        S.homogeneous("m", "0.6, 0.4, 0.2", "0.9, 0.8, 0.7", g=0.6), S.medium_cube("m", 3), S.floor(),
-        S.point_light("4, 4, 0", "20, 15, 10"), S.point_light("-4, 1, 1", "10, 10, 10"), SUN,
-        S.area_light_above(y=2.5, size=1.0, radiance="5, 5, 5"), max_depth=6),
+        S.homogeneous("m", "0.6, 0.4, 0.2", "0.9, 0.8, 0.7", g=0.6),
+        S.medium_cube("m", 3),
+        S.floor(),
+        S.point_light("4, 4, 0", "20, 15, 10"),
+        S.point_light("-4, 1, 1", "10, 10, 10"),
+        SUN,
+        S.area_light_above(y=2.5, size=1.0, radiance="5, 5, 5"),
+        max_depth=6,
+    ),
 }
 
 
-@pytest.mark.parametrize("case, tracer", [("camera_outside", "single"), ("camera_outside", "nee_mis"),
-                                          ("camera_inside", "single"), ("camera_inside", "nee_mis")])
+@pytest.mark.parametrize(
+    "case, tracer",
+    [
+        ("camera_outside", "single"),
+        ("camera_outside", "nee_mis"),
+        ("camera_inside", "single"),
+        ("camera_inside", "nee_mis"),
+    ],
+)
 def test_light_distances_and_free_flight_agree(case, tracer):
     """Light estimated from distances drawn for the lights (LightDistances; NEE at free
     flight's collisions toward the environment alone) equals NEE at every collision."""
@@ -191,9 +267,17 @@ def test_light_distances_leave_an_environment_map_to_collisions(tmp_path):
     sky[1:3, 4:7] = 20  # a bright patch
     volpath.write_exr(tmp_path / "sky.exr", sky)
     envmap = '<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>'
-    scene = volpath.load_string(S.scene(
-        S.camera(res=16, spp=128), S.homogeneous("m", "1.5, 1.2, 1.0", "0.95, 0.9, 0.85", g=0.3),
-        S.medium_sphere("m", 1.2), SUN, envmap, max_depth=5), base_dir=str(tmp_path))
+    scene = volpath.load_string(
+        S.scene(
+            S.camera(res=16, spp=128),
+            S.homogeneous("m", "1.5, 1.2, 1.0", "0.95, 0.9, 0.85", g=0.3),
+            S.medium_sphere("m", 1.2),
+            SUN,
+            envmap,
+            max_depth=5,
+        ),
+        base_dir=str(tmp_path),
+    )
     on = render_batches(_light_distances(True), scene, 8, block=8, tracer="nee_mis")
     off = render_batches(_light_distances(False), scene, 8, block=8, tracer="nee_mis")
     assert max_z(on[0], on[1], off[0], off[1]) < Z_MAX
@@ -205,9 +289,16 @@ def test_light_distances_weigh_emitters_found_by_phase_sampling():
     strategy too (leaving that term out, or the phase strategy's density at a distance
     drawn for the light, shifts the image by 20-40 standard errors). Compared with light
     distances off and with phase sampling alone (the multiple tracer)."""
-    scene = volpath.load_string(S.scene(
-        S.camera(res=16, spp=16), S.homogeneous("m", "0.6, 0.4, 0.25", "0.95"), S.medium_sphere("m", 1.3),
-        S.area_light_above(y=1.6, size=1.5, radiance="2, 2, 2"), S.constant_env("0.5, 0.5, 0.5"), max_depth=3))
+    scene = volpath.load_string(
+        S.scene(
+            S.camera(res=16, spp=16),
+            S.homogeneous("m", "0.6, 0.4, 0.25", "0.95"),
+            S.medium_sphere("m", 1.3),
+            S.area_light_above(y=1.6, size=1.5, radiance="2, 2, 2"),
+            S.constant_env("0.5, 0.5, 0.5"),
+            max_depth=3,
+        )
+    )
     on = render_batches(_light_distances(True), scene, 8, block=4, tracer="nee_mis")
     off = render_batches(_light_distances(False), scene, 8, block=4, tracer="nee_mis")
     phase = render_batches(volpath.render, scene, 8, block=4, tracer="multiple")
@@ -223,10 +314,18 @@ def test_constant_sky_is_left_to_phase_sampling(tracer):
     plus the sky alone rendered by the multiple tracer, which has no NEE at all. A wrong
     selection pdf doubles the sun; an MIS weight that still counted NEE for the sky halves
     the sky's light found by phase sampling: both far beyond the threshold."""
+
     def smoke(*lights):
-        return volpath.load_string(S.scene(
-            S.camera(res=16, spp=16), S.floor(), S.homogeneous("m", "2, 1.5, 1", "0.9, 0.7, 0.5"),
-            S.medium_cube("m", 0.8), *lights, max_depth=8))
+        return volpath.load_string(
+            S.scene(
+                S.camera(res=16, spp=16),
+                S.floor(),
+                S.homogeneous("m", "2, 1.5, 1", "0.9, 0.7, 0.5"),
+                S.medium_cube("m", 0.8),
+                *lights,
+                max_depth=8,
+            )
+        )
 
     sky = S.constant_env("0.3, 0.4, 0.6")
     both = render_batches(volpath.render, smoke(SUN, sky), 8, block=4, tracer=tracer)
@@ -239,10 +338,15 @@ SUN_DISC = """<emitter type="sun"><vector name="direction" value="-0.3, -1, -0.4
     <float name="angular_radius" value="0.05"/><rgb name="irradiance" value="2, 2, 2"/></emitter>"""
 
 
-@pytest.mark.parametrize("light, sigma_t, least", [
-    (S.point_light("0, 1.6, 0", "4, 4, 4"), "1", 2),
-    (S.area_light_above(y=1.6, size=0.1, radiance="400, 400, 400"), "1", 2),
-    (SUN, "0.2", 4), (SUN_DISC, "0.2", 4)])
+@pytest.mark.parametrize(
+    "light, sigma_t, least",
+    [
+        (S.point_light("0, 1.6, 0", "4, 4, 4"), "1", 2),
+        (S.area_light_above(y=1.6, size=0.1, radiance="400, 400, 400"), "1", 2),
+        (SUN, "0.2", 4),
+        (SUN_DISC, "0.2", 4),
+    ],
+)
 def test_light_distances_reduce_noise(light, sigma_t, least):
     """A sphere of smoke lit by a point light or a small area light above it, or thin smoke
     in the sun (directional, or a disc), single scattering: at equal spp the per-pixel
@@ -250,9 +354,15 @@ def test_light_distances_reduce_noise(light, sigma_t, least):
     least 2x for the point and area lights (measured 6.6x and 5.1x at 8 spp) and 4x in the
     sun (measured 22x for both: free flight collides in the thin smoke only one time in
     three). The camera does not see the lights."""
-    scene = volpath.load_string(S.scene(
-        S.camera(res=16, spp=8, fov=28), S.homogeneous("m", sigma_t, "0.8"), S.medium_sphere("m"), light,
-        max_depth=2))
+    scene = volpath.load_string(
+        S.scene(
+            S.camera(res=16, spp=8, fov=28),
+            S.homogeneous("m", sigma_t, "0.8"),
+            S.medium_sphere("m"),
+            light,
+            max_depth=2,
+        )
+    )
     variance = {}
     for on in (True, False):
         images = [_light_distances(on)(scene, seed=100 + i) for i in range(6)]

@@ -4,12 +4,11 @@ bad files raise SceneError naming the file and the grid."""
 
 import numpy as np
 import pytest
-import volpath
 from blender_scenes import write_vdb
 
-from volpath.xml_reader import read_xml
-
 import scenes as S
+import volpath
+from volpath.xml_reader import read_xml
 
 
 def cloud(shape=(10, 12, 14), seed=1):
@@ -68,10 +67,14 @@ def test_vdb_numpy_render_round_trip(tmp_path):
     grid = volpath.VolumeGrid.from_file(path)
     place = '<transform name="to_world"><translate value="-1, -1, -1"/></transform>'
 
-    xml = S.scene(S.camera(res=12, spp=8), '<medium type="heterogeneous" id="m"><volume type="vdbvolume" name="density">'
-                  f'<string name="filename" value="cloud.vdb"/>{place}</volume>'
-                  '<float name="albedo" value="0.8"/><float name="scale" value="4"/></medium>',
-                  S.medium_cube("m", half=3), S.constant_env())
+    xml = S.scene(
+        S.camera(res=12, spp=8),
+        '<medium type="heterogeneous" id="m"><volume type="vdbvolume" name="density">'
+        f'<string name="filename" value="cloud.vdb"/>{place}</volume>'
+        '<float name="albedo" value="0.8"/><float name="scale" value="4"/></medium>',
+        S.medium_cube("m", half=3),
+        S.constant_env(),
+    )
     from_file = volpath.render(volpath.load_string(xml, base_dir=str(tmp_path)), seed=3)
     d = read_xml(xml, "<string>", {})
     d["m"]["density"] = volpath.VolumeGrid.from_numpy(grid.numpy(), translate(-1) @ grid.to_world)
@@ -101,7 +104,7 @@ def test_sparse_storage_follows_the_active_voxels():
     """A 128^3 box with a small ball: only bricks holding it are stored."""
     n = 128
     x = (np.arange(n) + 0.5) / n - 0.5
-    ball = ((x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2) < 0.1 ** 2).astype(np.float32)
+    ball = ((x[:, None, None] ** 2 + x[None, :, None] ** 2 + x[None, None, :] ** 2) < 0.1**2).astype(np.float32)
     grid = volpath.VolumeGrid.from_numpy(ball)
     assert np.array_equal(grid.numpy()[..., 0], ball)
     assert grid.nbytes < 0.05 * grid.dense_nbytes
@@ -143,13 +146,16 @@ def test_lookups_match_a_dense_trilinear_reference(channels):
         assert np.allclose(got, np.broadcast_to(ref, 3), rtol=1e-5, atol=1e-5), (p, got, ref)
 
 
-@pytest.mark.parametrize("damage, message", [
-    ("truncated", "grid 'density': .+"),
-    ("missing grid", "grid 'smoke': no grid named 'smoke' \\(the file has 'density'\\)"),
-    ("nan", "grid 'density' contains NaN or infinite values"),
-    ("negative", "grid 'density' contains negative values"),
-    ("not a file", "grid 'density': .+"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        ("truncated", "grid 'density': .+"),
+        ("missing grid", "grid 'smoke': no grid named 'smoke' \\(the file has 'density'\\)"),
+        ("nan", "grid 'density' contains NaN or infinite values"),
+        ("negative", "grid 'density' contains negative values"),
+        ("not a file", "grid 'density': .+"),
+    ],
+)
 def test_bad_vdb_files_raise_scene_errors_naming_file_and_grid(tmp_path, damage, message):
     density = cloud()
     if damage == "negative":
@@ -167,9 +173,13 @@ def test_bad_vdb_files_raise_scene_errors_naming_file_and_grid(tmp_path, damage,
         path.write_bytes(data[: len(data) // 2])
     if damage == "not a file":
         path.write_bytes(b"definitely not OpenVDB" * 10)
-    xml = S.scene(S.camera(res=4, spp=1), '<medium type="heterogeneous" id="m"><volume type="vdbvolume" name="density">'
-                  f'<string name="filename" value="bad.vdb"/><string name="grid" value="{"smoke" if damage == "missing grid" else "density"}"/>'
-                  '</volume></medium>', S.medium_cube("m"))
+    xml = S.scene(
+        S.camera(res=4, spp=1),
+        '<medium type="heterogeneous" id="m"><volume type="vdbvolume" name="density">'
+        f'<string name="filename" value="bad.vdb"/><string name="grid" value="{"smoke" if damage == "missing grid" else "density"}"/>'
+        "</volume></medium>",
+        S.medium_cube("m"),
+    )
     with pytest.raises(volpath.SceneError, match=f"<string>:\\d+: .*bad.vdb: {message}") as e:
         volpath.load_string(xml, base_dir=str(tmp_path))
     assert str(tmp_path / "bad.vdb") in str(e.value)
@@ -189,11 +199,17 @@ def test_temperature_grid_emits_blackbody_light(tmp_path):
         g.transform = vdb.createLinearTransform(voxelSize=0.25)
         grids.append(g)
     vdb.write(str(tmp_path / "fire.vdb"), grids=grids)
-    volume = '<volume type="vdbvolume" name="{0}"><string name="filename" value="fire.vdb"/>' \
-             '<string name="grid" value="{0}"/></volume>'
-    xml = S.scene(S.camera(res=8, spp=8), f'<medium type="heterogeneous" id="m">{volume.format("density")}'
-                  f'<float name="albedo" value="0"/>{volume.format("temperature")}'
-                  '<float name="blackbody_scale" value="1e-6"/></medium>', S.medium_cube("m", half=1.1))
+    volume = (
+        '<volume type="vdbvolume" name="{0}"><string name="filename" value="fire.vdb"/>'
+        '<string name="grid" value="{0}"/></volume>'
+    )
+    xml = S.scene(
+        S.camera(res=8, spp=8),
+        f'<medium type="heterogeneous" id="m">{volume.format("density")}'
+        f'<float name="albedo" value="0"/>{volume.format("temperature")}'
+        '<float name="blackbody_scale" value="1e-6"/></medium>',
+        S.medium_cube("m", half=1.1),
+    )
     img = volpath.render(volpath.load_string(xml, base_dir=str(tmp_path)), seed=1)
     assert img[4, 4, 0] > img[4, 4, 2] > 0  # 3000 K is red
     assert np.all(img[0, 0] == 0)
@@ -237,8 +253,12 @@ def test_a_volume_grid_in_a_dictionary_writes_back_as_xml(tmp_path, border):
     from volpath import _core
     from volpath.xml_writer import write_scene
 
-    xml = S.scene(S.camera(res=8, spp=4), '<medium type="heterogeneous" id="m"><float name="density" value="1"/>'
-                  '</medium>', S.medium_cube("m"), S.constant_env())
+    xml = S.scene(
+        S.camera(res=8, spp=4),
+        '<medium type="heterogeneous" id="m"><float name="density" value="1"/></medium>',
+        S.medium_cube("m"),
+        S.constant_env(),
+    )
     d = read_xml(xml, "<string>", {})
     to_world = np.diag([2.0, 2.0, 2.0, 1.0]) @ translate(-0.5)
     data = np.random.default_rng(1).random((5, 6, 7))
@@ -253,6 +273,10 @@ def test_a_volume_grid_in_a_dictionary_writes_back_as_xml(tmp_path, border):
         return
     assert 'type="vdbvolume"' in open(path).read() and (tmp_path / "volumes" / "density.vdb").is_file()
     points = np.random.default_rng(2).uniform(-1.2, 1.2, (2000, 3))
-    assert np.allclose(_core.medium_sigma_t(written.native, 0, points), _core.medium_sigma_t(direct.native, 0, points),
-                       rtol=1e-5, atol=1e-6)
+    assert np.allclose(
+        _core.medium_sigma_t(written.native, 0, points),
+        _core.medium_sigma_t(direct.native, 0, points),
+        rtol=1e-5,
+        atol=1e-6,
+    )
     assert volpath.render(written, seed=1).mean() > 0

@@ -9,19 +9,25 @@ import sys
 import textwrap
 import time
 
+import faults
 import numpy as np
 import pytest
-
-import faults
-import volpath
 from blender_scenes import ROOT, bpy, tiny_animation
+
+import volpath
 
 FRAMES = 4
 
 
 def cli(*args, env=None, **kw):
-    return subprocess.run([sys.executable, "-m", "addon.sunrise", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, env={**os.environ, **(env or {})}, **kw)
+    return subprocess.run(
+        [sys.executable, "-m", "addon.sunrise", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env={**os.environ, **(env or {})},
+        **kw,
+    )
 
 
 def frames_on_disk(out):
@@ -64,7 +70,9 @@ def test_frames_to_a_target_error_report_it_and_resume_by_it(tmp_path):
         _, meta = volpath.read_exr(out / "frames" / f"frame_{f:04d}.exr", metadata=True)
         assert meta["target_error"] == pytest.approx(0.01) and meta["spp_cap"] == 64 and meta["spp"] <= 64
         status = summary["frames"][str(f)]
-        assert status["error"] == pytest.approx(meta["error"], abs=1e-5) and status["spp_mean"] == pytest.approx(meta["spp_mean"], abs=0.06)
+        assert status["error"] == pytest.approx(meta["error"], abs=1e-5) and status["spp_mean"] == pytest.approx(
+            meta["spp_mean"], abs=0.06
+        )
     r = cli("--blend", blend, "--out", out, "--target-error", 0.01, "--spp", 64, "--resume", "--workers", 1)
     assert [s["status"] for s in json.loads((out / "summary.json").read_text())["frames"].values()] == ["kept"] * 2
     r = cli("--blend", blend, "--out", out, "--target-error", 0.02, "--spp", 64, "--resume", "--workers", 1)
@@ -78,7 +86,10 @@ def test_denoised_frames_say_so_and_resume_by_it(tmp_path):
     out = tmp_path / "out"
     r = cli("--blend", blend, "--out", out, "--denoise", "--workers", 1)
     assert r.returncode == 0, r.stderr[-3000:]
-    assert [volpath.read_exr(out / "frames" / f"frame_{f:04d}.exr", metadata=True)[1]["denoised"] for f in (1, 2)] == [1, 1]
+    assert [volpath.read_exr(out / "frames" / f"frame_{f:04d}.exr", metadata=True)[1]["denoised"] for f in (1, 2)] == [
+        1,
+        1,
+    ]
     cli("--blend", blend, "--out", out, "--denoise", "--resume", "--workers", 1)
     assert [s["status"] for s in json.loads((out / "summary.json").read_text())["frames"].values()] == ["kept"] * 2
     cli("--blend", blend, "--out", out, "--no-denoise", "--resume", "--workers", 1)
@@ -108,16 +119,35 @@ def test_blender_entry_point(tmp_path):
 def test_kill_then_resume_renders_only_what_is_missing(tmp_path):
     blend = tiny_animation(tmp_path / "tiny.blend", frames=8, spp=64, sky=True)
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "addon.sunrise", "--blend", str(blend), "--out", str(out),
-                          "--workers", "1", "--threads", "1"], cwd=ROOT, start_new_session=True,
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "addon.sunrise",
+            "--blend",
+            str(blend),
+            "--out",
+            str(out),
+            "--workers",
+            "1",
+            "--threads",
+            "1",
+        ],
+        cwd=ROOT,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = time.time() + 120
     while time.time() < deadline and not (out / "frames" / "frame_0002.exr").exists():
         time.sleep(0.05)
     os.killpg(p.pid, signal.SIGKILL)
     p.wait()
-    kept = {name: (out / "frames" / name).stat().st_mtime_ns for name in frames_on_disk(out)
-            if name.endswith(".exr") and not name.endswith(".tmp.exr")}
+    kept = {
+        name: (out / "frames" / name).stat().st_mtime_ns
+        for name in frames_on_disk(out)
+        if name.endswith(".exr") and not name.endswith(".tmp.exr")
+    }
     assert 2 <= len(kept) < 8, kept  # killed midway
     r = cli("--blend", blend, "--out", out, "--resume", "--workers", 2)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -144,8 +174,13 @@ def test_dask_cluster_gives_the_same_bits_as_the_local_pool(tmp_path):
     local = Run(str(animation), str(tmp_path / "local"), [1, 2, 3], Options(spp=4, workers=2), progress=lambda *a: None)
     local.render()
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        dask = Run(str(animation), str(tmp_path / "dask"), [1, 2, 3], Options(spp=4, scheduler=cluster.scheduler_address),
-                   progress=lambda *a: None)
+        dask = Run(
+            str(animation),
+            str(tmp_path / "dask"),
+            [1, 2, 3],
+            Options(spp=4, scheduler=cluster.scheduler_address),
+            progress=lambda *a: None,
+        )
         dask.render()
     for f in (1, 2, 3):
         a = volpath.read_exr(exr_path(str(tmp_path / "local"), f))
@@ -168,14 +203,17 @@ def test_a_failing_frame_is_retried_reported_and_the_rest_completes(tmp_path):
     assert count_frames(str(out / "sunrise.mp4")) == 3
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--frames", "5-1"], "the range ends before it starts"),
-    (["--res", "0x5"], "expected WIDTHxHEIGHT"),
-    (["--tracer", "bogus"], "unknown tracer 'bogus'"),
-    (["--spp", "0"], "--spp: 0: must be at least 1"),
-    (["--exposure", "bright"], "expected a number of stops or 'auto'"),
-    (["--blend", "/nonexistent.blend"], "no such .blend file"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--frames", "5-1"], "the range ends before it starts"),
+        (["--res", "0x5"], "expected WIDTHxHEIGHT"),
+        (["--tracer", "bogus"], "unknown tracer 'bogus'"),
+        (["--spp", "0"], "--spp: 0: must be at least 1"),
+        (["--exposure", "bright"], "expected a number of stops or 'auto'"),
+        (["--blend", "/nonexistent.blend"], "no such .blend file"),
+    ],
+)
 def test_bad_options_get_a_clear_message(tmp_path, args, message):
     r = cli("--out", tmp_path / "out", *args)
     assert r.returncode == 2
@@ -199,7 +237,7 @@ def test_resume_rerenders_frames_of_another_size_or_spp(tmp_path):
 def test_vdb_sequence_changes_with_the_frame(tmp_path):
     """A two-file VDB sequence: each pipeline frame renders that frame's grid (a copy of
     its .vdb, read sparse), the same bits as rendering the scene exported at that frame."""
-    from blender_scenes import add_camera, add_volume, blank_scene, set_background, volume_material, write_vdb
+    from blender_scenes import add_camera, blank_scene, set_background, volume_material, write_vdb
 
     from addon.export import export_scene
     from addon.export.animation import export_animation
@@ -210,8 +248,11 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
     base = np.clip(1 - np.sqrt((x - 3.5) ** 2 + (y - 3.5) ** 2 + (z - 3.5) ** 2) / 4, 0, None).astype(np.float32)
     for frame, scale in ((1, 1.0), (2, 4.0)):
         write_vdb(tmp_path / f"puff_{frame:04d}.vdb", base * scale)
-    bpy.ops.object.volume_import(filepath=str(tmp_path / "puff_0001.vdb"), directory=str(tmp_path),
-                                 files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}])
+    bpy.ops.object.volume_import(
+        filepath=str(tmp_path / "puff_0001.vdb"),
+        directory=str(tmp_path),
+        files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}],
+    )
     bpy.context.object.data.materials.append(volume_material("smoke", density=20.0))
     add_camera(scene, location=(0.4, -3, 0.4), rotation=(np.pi / 2, 0, 0))
     set_background(scene, (1, 1, 1))
@@ -224,8 +265,12 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
     for frame in (1, 2):
         image, _ = render_frame(str(tmp_path / "anim"), frame, 4, "null_scattering")
         scene.frame_set(frame)
-        direct = volpath.render(volpath.load_dict(export_scene(bpy.context.evaluated_depsgraph_get()).scene),
-                                spp=4, seed=frame, tracer="null_scattering")
+        direct = volpath.render(
+            volpath.load_dict(export_scene(bpy.context.evaluated_depsgraph_get()).scene),
+            spp=4,
+            seed=frame,
+            tracer="null_scattering",
+        )
         assert np.array_equal(image, direct), frame
         images.append(image)
     # Four times denser: darker over the whole image (measured 0.93 and 0.89; the noise of a
@@ -261,7 +306,8 @@ def test_workers_do_not_run_the_callers_script_again(tmp_path):
     tiny_animation(frames=2)
     export_animation(bpy.context.scene, [1, 2], str(tmp_path / "anim"))
     script, runs = tmp_path / "render.py", tmp_path / "runs.txt"
-    script.write_text(textwrap.dedent(f"""
+    script.write_text(
+        textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {ROOT!r})
         with open({str(runs)!r}, "a") as f:
@@ -271,7 +317,8 @@ def test_workers_do_not_run_the_callers_script_again(tmp_path):
                   progress=lambda *a: None)
         run.render()
         assert not run.failed(), run.status
-    """))
+    """)
+    )
     r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr[-3000:]
     assert runs.read_text() == "run\n"

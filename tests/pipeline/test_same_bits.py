@@ -36,14 +36,15 @@ def sunrise_frame(tmp):
     """Frame 34 of the default sunrise, built by its script, exported by the pipeline's
     export, at 48x27 and 2 spp."""
     import bpy
-
     from blender_scenes import blank_scene
+
     from addon.export.animation import export_animation
     from volpath.frames import render_frame
 
     blend = os.path.join(tmp, "sunrise.blend")
-    subprocess.run([sys.executable, os.path.join(ROOT, "scenes", "sunrise", "build.py"), blend], check=True,
-                   capture_output=True)
+    subprocess.run(
+        [sys.executable, os.path.join(ROOT, "scenes", "sunrise", "build.py"), blend], check=True, capture_output=True
+    )
     blank_scene()  # registers the add-on, whose properties the .blend holds
     bpy.ops.wm.open_mainfile(filepath=blend)
     scene = bpy.context.scene

@@ -20,6 +20,6 @@ def test_sheet_labels_each_frame():
     sheet = video.contact_sheet(frames, columns=2, labels=["1", "2", "3"])
     assert sheet.shape == (36, 64, 3)
     for r, c in ((0, 0), (0, 1), (1, 0)):
-        tile = sheet[r * 18:(r + 1) * 18, c * 32:(c + 1) * 32]
+        tile = sheet[r * 18 : (r + 1) * 18, c * 32 : (c + 1) * 32]
         assert (tile == 255).all(axis=2)[-7:, :8].any()
     assert (sheet[18:, 32:] == 0).all()  # no fourth frame

@@ -7,12 +7,19 @@ import time
 
 import numpy as np
 import pytest
-import volpath
 
 import scenes as S
+import volpath
 
-SCENE = S.scene(S.camera(res=40, spp=8), S.homogeneous("m", "2, 1, 0.5", "0.9, 0.8, 0.7", g=0.5),
-                S.medium_sphere("m"), S.floor(), S.area_light_above(), S.point_light(), S.constant_env("0.1, 0.1, 0.1"))
+SCENE = S.scene(
+    S.camera(res=40, spp=8),
+    S.homogeneous("m", "2, 1, 0.5", "0.9, 0.8, 0.7", g=0.5),
+    S.medium_sphere("m"),
+    S.floor(),
+    S.area_light_above(),
+    S.point_light(),
+    S.constant_env("0.1, 0.1, 0.1"),
+)
 
 
 @pytest.mark.parametrize("tracer", volpath.TRACERS)
@@ -27,8 +34,9 @@ def test_same_seed_same_image_whatever_the_thread_count(tracer):
 
 
 def test_progress_callback_can_cancel_quickly():
-    scene = volpath.load_string(S.scene(S.camera(res=256, spp=4096), S.homogeneous("m", "5", "0.99"),
-                                        S.medium_sphere("m"), S.constant_env()))
+    scene = volpath.load_string(
+        S.scene(S.camera(res=256, spp=4096), S.homogeneous("m", "5", "0.99"), S.medium_sphere("m"), S.constant_env())
+    )
     calls = []
 
     def progress(fraction):
@@ -61,8 +69,9 @@ def test_bad_render_arguments():
 
 def test_exr_round_trip(tmp_path):
     img = np.random.default_rng(0).random((7, 9, 3)).astype(np.float32)
-    volpath.write_exr(tmp_path / "a.exr", img, metadata={"frame": 3, "spp": 16.0, "tracer": "nee_mis",
-                                                          "sun": (0.0, 0.5, -1.0)})
+    volpath.write_exr(
+        tmp_path / "a.exr", img, metadata={"frame": 3, "spp": 16.0, "tracer": "nee_mis", "sun": (0.0, 0.5, -1.0)}
+    )
     back, meta = volpath.read_exr(tmp_path / "a.exr", metadata=True)
     assert np.array_equal(back, img)
     assert meta["frame"] == 3 and meta["tracer"] == "nee_mis" and np.allclose(meta["sun"], (0, 0.5, -1))
@@ -79,9 +88,11 @@ def run_cli(*args, cwd=None):
 
 
 def test_cli_render_and_info(tmp_path):
-    (tmp_path / "s.xml").write_text(SCENE.replace('<integrator', '<default name="res" value="8"/><integrator'))
+    (tmp_path / "s.xml").write_text(SCENE.replace("<integrator", '<default name="res" value="8"/><integrator'))
     out = tmp_path / "o.exr"
-    r = run_cli("render", str(tmp_path / "s.xml"), "-o", str(out), "--spp", "2", "--tracer", "nee_mis", "--threads", "1")
+    r = run_cli(
+        "render", str(tmp_path / "s.xml"), "-o", str(out), "--spp", "2", "--tracer", "nee_mis", "--threads", "1"
+    )
     assert r.returncode == 0, r.stderr
     assert "non-finite samples" in r.stdout and out.exists()
     image, meta = volpath.read_exr(out, metadata=True)
@@ -98,13 +109,17 @@ def test_ctrl_c_stops_the_cli_within_a_second(tmp_path):
     import select
     import signal
 
-    (tmp_path / "slow.xml").write_text(S.scene(S.camera(res=256, spp=100000), S.homogeneous("m", "5", "0.99"),
-                                               S.medium_sphere("m"), S.constant_env()))
+    (tmp_path / "slow.xml").write_text(
+        S.scene(S.camera(res=256, spp=100000), S.homogeneous("m", "5", "0.99"), S.medium_sphere("m"), S.constant_env())
+    )
     # As from a terminal: SIGINT handled (a shell's background job, as CI may be, inherits
     # it ignored, and Python then keeps it ignored).
-    proc = subprocess.Popen([sys.executable, "-m", "volpath", "render", str(tmp_path / "slow.xml"), "-o",
-                             str(tmp_path / "o.exr")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "volpath", "render", str(tmp_path / "slow.xml"), "-o", str(tmp_path / "o.exr")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     # Wait until rendering: the progress bar has appeared (a loaded CI machine may take
     # seconds just to import).
     seen = b""

@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-import volpath
-from volpath.meshes import load_mesh, write_ply
 
 import scenes as S
+import volpath
+from volpath.meshes import load_mesh, write_ply
 
 LAJOLLA = """<?xml version="1.0"?>
 <scene version="0.5.0">
@@ -43,9 +43,14 @@ LAJOLLA = """<?xml version="1.0"?>
     </sensor>
 </scene>"""
 
-MITSUBA3 = S.scene(S.camera(res=12, spp=8), '<default name="sigma" value="2"/>',
-                   '<medium type="homogeneous" id="m"><float name="sigma_t" value="$sigma"/>'
-                   '<float name="albedo" value="0.5"/></medium>', S.medium_sphere("m"), S.point_light())
+MITSUBA3 = S.scene(
+    S.camera(res=12, spp=8),
+    '<default name="sigma" value="2"/>',
+    '<medium type="homogeneous" id="m"><float name="sigma_t" value="$sigma"/>'
+    '<float name="albedo" value="0.5"/></medium>',
+    S.medium_sphere("m"),
+    S.point_light(),
+)
 
 
 def test_lajolla_spellings():
@@ -72,11 +77,14 @@ def test_load_file_and_meshes(tmp_path):
     p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
     write_ply(tmp_path / "quad.ply", p, [[0, 1, 2], [0, 2, 3]])
     (tmp_path / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n")
-    xml = S.scene(S.camera(res=8), '<default name="spp" value="4"/>',
-                  '<shape type="ply"><string name="filename" value="quad.ply"/>'
-                  '<emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>',
-                  '<shape type="obj"><string name="filename" value="quad.obj"/>'
-                  '<transform name="to_world"><translate z="-1"/></transform></shape>')
+    xml = S.scene(
+        S.camera(res=8),
+        '<default name="spp" value="4"/>',
+        '<shape type="ply"><string name="filename" value="quad.ply"/>'
+        '<emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>',
+        '<shape type="obj"><string name="filename" value="quad.obj"/>'
+        '<transform name="to_world"><translate z="-1"/></transform></shape>',
+    )
     (tmp_path / "s.xml").write_text(xml)
     scene = volpath.load_file(tmp_path / "s.xml")
     assert [s["triangles"] for s in scene.summary["shapes"]] == [2, 2]
@@ -88,9 +96,16 @@ def test_load_file_and_meshes(tmp_path):
 def _ply(path, order, faces, extra_face_prop=False):
     """A binary PLY of four vertices whose faces are the given index lists."""
     o = "<" if order == "little" else ">"
-    head = [f"ply", f"format binary_{order}_endian 1.0", "element vertex 4", "property float x",
-            "property float y", "property float z", f"element face {len(faces)}",
-            "property list uchar int vertex_indices"] + (["property uchar flags"] if extra_face_prop else [])
+    head = [
+        "ply",
+        f"format binary_{order}_endian 1.0",
+        "element vertex 4",
+        "property float x",
+        "property float y",
+        "property float z",
+        f"element face {len(faces)}",
+        "property list uchar int vertex_indices",
+    ] + (["property uchar flags"] if extra_face_prop else [])
     body = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], o + "f4").tobytes()
     for f in faces:
         body += np.array([len(f)], "u1").tobytes() + np.array(f, o + "i4").tobytes()
@@ -100,8 +115,10 @@ def _ply(path, order, faces, extra_face_prop=False):
 
 
 @pytest.mark.parametrize("order", ["little", "big"])
-@pytest.mark.parametrize("faces", [[[0, 1, 2], [0, 2, 3]], [[0, 1, 2, 3]], [[0, 1, 2, 3], [0, 1, 2]],
-                                   [[3, 2, 1, 0], [0, 1, 2, 3], [1, 2, 3]]])
+@pytest.mark.parametrize(
+    "faces",
+    [[[0, 1, 2], [0, 2, 3]], [[0, 1, 2, 3]], [[0, 1, 2, 3], [0, 1, 2]], [[3, 2, 1, 0], [0, 1, 2, 3], [1, 2, 3]]],
+)
 @pytest.mark.parametrize("extra", [False, True])
 def test_binary_ply_faces_fan_triangulated(tmp_path, order, faces, extra):
     # One structured read when every face has one size, a row-by-row walk otherwise:
@@ -120,28 +137,49 @@ def test_transforms_compose_in_order():
 
 BAD = {
     "unknown plugin": (S.scene(S.camera(), '<shape type="teapot"/>'), r"<string>:\d+: .*unknown shape"),
-    "unknown parameter": (S.scene(S.camera(), '<shape type="sphere"><float name="radios" value="1"/></shape>'),
-                          r"<string>:\d+: .*unexpected parameter.*radios"),
-    "malformed number": (S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="1.x"/></shape>'),
-                         r"<string>:\d+: malformed number '1.x'"),
-    "dangling ref": (S.scene(S.camera(), '<shape type="sphere"><ref name="interior" id="fog"/></shape>'),
-                     r"<string>:\d+: reference to unknown id 'fog'"),
-    "missing file": (S.scene(S.camera(), '<shape type="obj"><string name="filename" value="nope.obj"/></shape>'),
-                     r"<string>:\d+: .*'nope.obj' not found"),
+    "unknown parameter": (
+        S.scene(S.camera(), '<shape type="sphere"><float name="radios" value="1"/></shape>'),
+        r"<string>:\d+: .*unexpected parameter.*radios",
+    ),
+    "malformed number": (
+        S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="1.x"/></shape>'),
+        r"<string>:\d+: malformed number '1.x'",
+    ),
+    "dangling ref": (
+        S.scene(S.camera(), '<shape type="sphere"><ref name="interior" id="fog"/></shape>'),
+        r"<string>:\d+: reference to unknown id 'fog'",
+    ),
+    "missing file": (
+        S.scene(S.camera(), '<shape type="obj"><string name="filename" value="nope.obj"/></shape>'),
+        r"<string>:\d+: .*'nope.obj' not found",
+    ),
     "malformed xml": ("<scene version='3.0.0'><shape type='sphere'></scene>", r"<string>:1: malformed XML"),
-    "undefined parameter": (S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="$r"/></shape>'),
-                            r"<string>:\d+: undefined parameter \$r"),
-    "wrong type": (S.scene(S.camera(), '<shape type="sphere"><string name="radius" value="big"/></shape>'),
-                   r"<string>:\d+: .*'radius' must be a float"),
+    "undefined parameter": (
+        S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="$r"/></shape>'),
+        r"<string>:\d+: undefined parameter \$r",
+    ),
+    "wrong type": (
+        S.scene(S.camera(), '<shape type="sphere"><string name="radius" value="big"/></shape>'),
+        r"<string>:\d+: .*'radius' must be a float",
+    ),
     "no sensor": (S.scene('<shape type="sphere"/>'), r"no sensor"),
-    "bad rgb": (S.scene(S.camera(), '<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1, 2"/></bsdf></shape>'),
-                r"<string>:\d+: rgb '1, 2': expected 3 numbers"),
-    "negative radius": (S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="-1"/></shape>'),
-                        r"<string>:\d+: .*'radius' must be positive"),
+    "bad rgb": (
+        S.scene(
+            S.camera(),
+            '<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1, 2"/></bsdf></shape>',
+        ),
+        r"<string>:\d+: rgb '1, 2': expected 3 numbers",
+    ),
+    "negative radius": (
+        S.scene(S.camera(), '<shape type="sphere"><float name="radius" value="-1"/></shape>'),
+        r"<string>:\d+: .*'radius' must be positive",
+    ),
     "bad film": (S.scene(S.camera(res=0)), r"<string>:\d+: .*film size"),
     "area emitter alone": (S.scene(S.camera(), '<emitter type="area"/>'), r"<string>:\d+: .*nested inside a shape"),
-    "unknown element": (S.scene(S.camera(), '<shape type="sphere"><colour name="x" value="1"/></shape>'),
-                        r"<string>:\d+: unknown element <colour>"),
+    "unknown element": (
+        S.scene(S.camera(), '<shape type="sphere"><colour name="x" value="1"/></shape>'),
+        r"<string>:\d+: unknown element <colour>",
+    ),
 }
 
 
@@ -154,7 +192,9 @@ def test_bad_input_raises_scene_error(case):
 
 def test_error_names_the_file_and_line(tmp_path):
     path = tmp_path / "bad.xml"
-    path.write_text('<scene version="3.0.0">\n\n  <shape type="sphere">\n    <float name="radius" value="abc"/>\n  </shape>\n</scene>\n')
+    path.write_text(
+        '<scene version="3.0.0">\n\n  <shape type="sphere">\n    <float name="radius" value="abc"/>\n  </shape>\n</scene>\n'
+    )
     with pytest.raises(volpath.SceneError) as e:
         volpath.load_file(path)
     assert str(e.value).startswith(f"{path}:4: malformed number 'abc'")
@@ -177,8 +217,12 @@ def test_bad_grid_files(tmp_path):
     huge[8:12] = (1 << 30).to_bytes(4, "little")
     (tmp_path / "huge.vol").write_bytes(bytes(huge))
     for name, msg in [("short", "truncated"), ("nan", "NaN"), ("neg", "negative"), ("huge", "larger than the limit")]:
-        xml = S.scene(S.camera(), f'<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
-                      f'<string name="filename" value="{name}.vol"/></volume></medium>', S.medium_cube("m"))
+        xml = S.scene(
+            S.camera(),
+            f'<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
+            f'<string name="filename" value="{name}.vol"/></volume></medium>',
+            S.medium_cube("m"),
+        )
         with pytest.raises(volpath.SceneError, match=msg):
             volpath.load_string(xml, base_dir=str(tmp_path))
 
@@ -186,15 +230,26 @@ def test_bad_grid_files(tmp_path):
 def test_load_dict_in_mitsubas_dictionary_form():
     to_world = np.diag([-1.0, 1.0, -1.0, 1.0])
     to_world[2, 3] = 5  # at z = 5 looking down -z
-    scene = volpath.load_dict({
-        "type": "scene",
-        "sensor": {"type": "perspective", "fov": 40.0, "to_world": to_world,
-                   "film": {"type": "hdrfilm", "width": 8, "height": 8, "rfilter": {"type": "box"}},
-                   "sampler": {"type": "independent", "sample_count": 4}},
-        "fog": {"type": "homogeneous", "sigma_t": 1.0, "albedo": 0.0},
-        "ball": {"type": "sphere", "radius": 1.0, "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": "fog"}},
-        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [1, 1, 1]}},
-    })
+    scene = volpath.load_dict(
+        {
+            "type": "scene",
+            "sensor": {
+                "type": "perspective",
+                "fov": 40.0,
+                "to_world": to_world,
+                "film": {"type": "hdrfilm", "width": 8, "height": 8, "rfilter": {"type": "box"}},
+                "sampler": {"type": "independent", "sample_count": 4},
+            },
+            "fog": {"type": "homogeneous", "sigma_t": 1.0, "albedo": 0.0},
+            "ball": {
+                "type": "sphere",
+                "radius": 1.0,
+                "bsdf": {"type": "null"},
+                "interior": {"type": "ref", "id": "fog"},
+            },
+            "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [1, 1, 1]}},
+        }
+    )
     image = volpath.render(scene)
     assert scene.spp == 4 and image.shape == (8, 8, 3)
     assert np.allclose(image[0, 0], 1) and image[4, 4, 0] < 0.2  # through the sphere: about exp(-2)

@@ -26,10 +26,19 @@ except (ImportError, ValueError):
 
 # Shared libraries every manylinux platform provides (PEP 600 allow-list, the subset a C++
 # module can need).
-MANYLINUX_LIBS = {"libc.so.6", "libm.so.6", "libpthread.so.0", "libdl.so.2", "librt.so.1", "libgcc_s.so.1",
-                  "libstdc++.so.6", "ld-linux-x86-64.so.2", "libutil.so.1"}
+MANYLINUX_LIBS = {
+    "libc.so.6",
+    "libm.so.6",
+    "libpthread.so.0",
+    "libdl.so.2",
+    "librt.so.1",
+    "libgcc_s.so.1",
+    "libstdc++.so.6",
+    "ld-linux-x86-64.so.2",
+    "libutil.so.1",
+}
 
-SCRIPT = textwrap.dedent('''
+SCRIPT = textwrap.dedent("""
     import ctypes, sys
     import numpy as np
     if sys.argv[1] == "blender":
@@ -39,7 +48,7 @@ SCRIPT = textwrap.dedent('''
     import volpath
     scene = volpath.load_string(open(sys.argv[3]).read(), base_dir=sys.argv[4])
     np.save(sys.argv[5], volpath.render(scene, spp=4, seed=11, threads=2))
-''')
+""")
 
 
 def bpy_module():
@@ -60,6 +69,7 @@ def test_module_needs_only_manylinux_libraries():
 def test_render_inside_blenders_symbol_scope_is_identical(tmp_path):
     """Meshes, spheres, a .vol grid and a .vdb cloud (written by Blender's OpenVDB 12)."""
     from blender_scenes import write_vdb
+
     from volpath.grids import write_vol
     from volpath.meshes import write_ply
 
@@ -67,27 +77,44 @@ def test_render_inside_blenders_symbol_scope_is_identical(tmp_path):
     write_vdb(tmp_path / "cloud.vdb", np.random.default_rng(3).uniform(0, 4, (6, 6, 6)), voxel_size=0.1)
     p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0], [0, 0, 1]], float)
     write_ply(tmp_path / "pyramid.ply", p, [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 2, 1], [0, 3, 2]])
-    xml = S.scene(S.camera(res=24, spp=4),
-                  '<shape type="ply"><string name="filename" value="pyramid.ply"/>'
-                  '<transform name="to_world"><translate x="0.8" y="-0.5"/></transform></shape>',
-                  '<shape type="sphere"><point name="center" value="-1, 0.5, 0"/><float name="radius" value="0.6"/></shape>',
-                  '<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
-                  '<string name="filename" value="g.vol"/><transform name="to_world"><translate value="-0.5"/></transform>'
-                  '</volume><rgb name="albedo" value="0.9, 0.7, 0.5"/></medium>',
-                  S.medium_cube("m", 0.5),
-                  '<medium type="heterogeneous" id="cloud"><volume type="vdbvolume" name="density">'
-                  '<string name="filename" value="cloud.vdb"/><transform name="to_world"><translate x="-1.6" y="-1"/>'
-                  '</transform></volume><float name="albedo" value="0.95"/></medium>',
-                  '<shape type="cube"><bsdf type="null"/><ref name="interior" id="cloud"/><transform name="to_world"><scale value="0.5"/>'
-                  '<translate x="-1.4" y="-0.8"/></transform></shape>', S.floor(), S.area_light_above(), S.constant_env("0.2, 0.2, 0.2"))
+    xml = S.scene(
+        S.camera(res=24, spp=4),
+        '<shape type="ply"><string name="filename" value="pyramid.ply"/>'
+        '<transform name="to_world"><translate x="0.8" y="-0.5"/></transform></shape>',
+        '<shape type="sphere"><point name="center" value="-1, 0.5, 0"/><float name="radius" value="0.6"/></shape>',
+        '<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
+        '<string name="filename" value="g.vol"/><transform name="to_world"><translate value="-0.5"/></transform>'
+        '</volume><rgb name="albedo" value="0.9, 0.7, 0.5"/></medium>',
+        S.medium_cube("m", 0.5),
+        '<medium type="heterogeneous" id="cloud"><volume type="vdbvolume" name="density">'
+        '<string name="filename" value="cloud.vdb"/><transform name="to_world"><translate x="-1.6" y="-1"/>'
+        '</transform></volume><float name="albedo" value="0.95"/></medium>',
+        '<shape type="cube"><bsdf type="null"/><ref name="interior" id="cloud"/><transform name="to_world"><scale value="0.5"/>'
+        '<translate x="-1.4" y="-0.8"/></transform></shape>',
+        S.floor(),
+        S.area_light_above(),
+        S.constant_env("0.2, 0.2, 0.2"),
+    )
     (tmp_path / "s.xml").write_text(xml)
     (tmp_path / "run.py").write_text(SCRIPT)
     assert bpy_module(), "the bpy wheel (requirements.txt) is missing"
     images = {}
     for mode in ("clean", "blender"):
         out = tmp_path / f"{mode}.npy"
-        r = subprocess.run([sys.executable, str(tmp_path / "run.py"), mode, bpy_module(), str(tmp_path / "s.xml"),
-                            str(tmp_path), str(out)], capture_output=True, text=True, timeout=300)
+        r = subprocess.run(
+            [
+                sys.executable,
+                str(tmp_path / "run.py"),
+                mode,
+                bpy_module(),
+                str(tmp_path / "s.xml"),
+                str(tmp_path),
+                str(out),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert r.returncode == 0, r.stderr[-2000:]
         images[mode] = np.load(out)
     assert images["clean"].max() > 0

@@ -2,36 +2,47 @@
 minorants beside them (residual ratio tracking's control) never overestimate it."""
 
 import numpy as np
-import volpath
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from volpath import _core
-from volpath.grids import write_vol
 
 import scenes as S
+import volpath
+from volpath import _core
+from volpath.grids import write_vol
 
 
 def grid_scene(tmp_path, data, majorant_res=16, to_world='<translate value="-0.5"/><scale value="2"/>'):
     write_vol(tmp_path / "g.vol", data)
-    xml = S.scene(S.camera(res=4, spp=4), f"""<medium type="heterogeneous" id="m">
+    xml = S.scene(
+        S.camera(res=4, spp=4),
+        f"""<medium type="heterogeneous" id="m">
         <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
         <transform name="to_world">{to_world}</transform></volume>
         <float name="albedo" value="0.8"/><integer name="majorant_resolution" value="{majorant_res}"/></medium>""",
-                  S.medium_cube("m"), S.constant_env())
+        S.medium_cube("m"),
+        S.constant_env(),
+    )
     return volpath.load_string(xml, base_dir=str(tmp_path))
 
 
 @settings(max_examples=60, deadline=None)
-@given(shape=st.tuples(st.integers(1, 20), st.integers(1, 20), st.integers(1, 20)), channels=st.sampled_from([1, 3]),
-       majorant_res=st.integers(0, 64), seed=st.integers(0, 2 ** 32 - 1), sparse=st.booleans())
+@given(
+    shape=st.tuples(st.integers(1, 20), st.integers(1, 20), st.integers(1, 20)),
+    channels=st.sampled_from([1, 3]),
+    majorant_res=st.integers(0, 64),
+    seed=st.integers(0, 2**32 - 1),
+    sparse=st.booleans(),
+)
 def test_majorant_grid_bounds_the_density_everywhere(tmp_path_factory, shape, channels, majorant_res, seed, sparse):
     rng = np.random.default_rng(seed)
     data = rng.uniform(0, 10, shape + (channels,)).astype(np.float32)
     if sparse:  # empty 8^3 bricks (not stored) beside isolated voxels
         blocks = rng.random((3, 3, 3)) < 0.3
-        data *= (rng.random(shape + (1,)) < 0.1) | blocks[np.arange(shape[0])[:, None, None] // 8,
-                                                           np.arange(shape[1])[None, :, None] // 8,
-                                                           np.arange(shape[2])[None, None, :] // 8][..., None]
+        data *= (rng.random(shape + (1,)) < 0.1) | blocks[
+            np.arange(shape[0])[:, None, None] // 8,
+            np.arange(shape[1])[None, :, None] // 8,
+            np.arange(shape[2])[None, None, :] // 8,
+        ][..., None]
     scene = grid_scene(tmp_path_factory.mktemp("g"), data, majorant_res)
     for _ in range(20):
         o = rng.uniform(-3, 3, 3)
@@ -51,7 +62,7 @@ def test_local_majorants_cover_the_whole_ray_inside_the_grid(tmp_path):
     data = np.random.default_rng(1).uniform(0, 1, (8, 8, 8, 1)).astype(np.float32)
     scene = grid_scene(tmp_path, data)
     segs = _core.majorant_segments(scene.native, 0, (-5.0, 0.1, 0.2), (1.0, 0.05, -0.02), 100.0)
-    assert abs(segs[0, 0] - (5 - 1) * np.sqrt(1 + 0.05 ** 2 + 0.02 ** 2)) < 1e-9
+    assert abs(segs[0, 0] - (5 - 1) * np.sqrt(1 + 0.05**2 + 0.02**2)) < 1e-9
     assert np.allclose(segs[1:, 0], segs[:-1, 1])
     assert len(segs) > 8  # crosses many cells
 

@@ -8,19 +8,26 @@ comparison, 48 comparisons, family-wise false alarms below 1 %).
 
 import numpy as np
 import pytest
-import volpath
-from volpath.tonemap import auto_exposure, display
-from volpath.testing import MIN_BATCHES, max_z, render_batches
 
 import scenes as S
+import volpath
+from volpath.testing import MIN_BATCHES, max_z, render_batches
+from volpath.tonemap import auto_exposure, display
 
 Z_MAX = 5.0
 
 
 def smoke_and_floor(res=32):
     """Variance that differs across the image: a scattering sphere, its lit floor, black."""
-    return volpath.load_string(S.scene(S.camera(res=res, spp=64), S.homogeneous("m", "3, 2, 1", "0.9", g=0.3),
-                                       S.medium_sphere("m"), S.floor(), S.area_light_above(size=0.4)))
+    return volpath.load_string(
+        S.scene(
+            S.camera(res=res, spp=64),
+            S.homogeneous("m", "3, 2, 1", "0.9", g=0.3),
+            S.medium_sphere("m"),
+            S.floor(),
+            S.area_light_above(size=0.4),
+        )
+    )
 
 
 def adaptive(scene, seed, spp, target, **kwargs):
@@ -106,10 +113,15 @@ def test_cancel_keeps_the_image():
     assert e.value.image.shape == (24, 24, 3) and np.isfinite(e.value.image).all()
 
 
-@pytest.mark.parametrize("bad,message", [(dict(target_error=0), "in \\(0, 1\\)"),
-                                         (dict(target_error=1.5), "in \\(0, 1\\)"),
-                                         (dict(target_error="1%"), "in \\(0, 1\\)"),
-                                         (dict(target_error=0.01, spp=1), "at least 2")])
+@pytest.mark.parametrize(
+    "bad,message",
+    [
+        (dict(target_error=0), "in \\(0, 1\\)"),
+        (dict(target_error=1.5), "in \\(0, 1\\)"),
+        (dict(target_error="1%"), "in \\(0, 1\\)"),
+        (dict(target_error=0.01, spp=1), "at least 2"),
+    ],
+)
 def test_bad_targets(bad, message):
     with pytest.raises(ValueError, match=message):
         volpath.render(smoke_and_floor(res=8), **bad)

@@ -8,11 +8,11 @@ any region fails every time.
 
 import numpy as np
 import pytest
+
+import scenes as S
 import volpath
 from volpath import _core
 from volpath.testing import chi2_directions, chi2_pooled
-
-import scenes as S
 
 N = 200_000
 P_MIN = 1e-4
@@ -37,15 +37,25 @@ def _light_scene(emitter_xml, extra=""):
 
 
 LIGHTS = {
-    "sphere_outside": ('<shape type="sphere"><point name="center" value="0.5, 1, 3"/><float name="radius" value="1.2"/>'
-                       '<emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>', (0, 0, 0)),
-    "sphere_inside": ('<shape type="sphere"><float name="radius" value="2"/><boolean name="flip_normals" value="true"/>'
-                      '<emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>', (0.3, -0.5, 0.2)),
-    "rectangle": ('<shape type="rectangle"><transform name="to_world"><scale x="2" y="1"/><rotate x="1" angle="30"/>'
-                  '<translate z="1.5"/></transform><emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>',
-                  (0.2, 0.1, 3.0)),
-    "sun": ('<emitter type="sun"><float name="elevation" value="40"/><float name="angular_radius" value="0.05"/>'
-            '</emitter>', (0, 0, 0)),
+    "sphere_outside": (
+        '<shape type="sphere"><point name="center" value="0.5, 1, 3"/><float name="radius" value="1.2"/>'
+        '<emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>',
+        (0, 0, 0),
+    ),
+    "sphere_inside": (
+        '<shape type="sphere"><float name="radius" value="2"/><boolean name="flip_normals" value="true"/>'
+        '<emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>',
+        (0.3, -0.5, 0.2),
+    ),
+    "rectangle": (
+        '<shape type="rectangle"><transform name="to_world"><scale x="2" y="1"/><rotate x="1" angle="30"/>'
+        '<translate z="1.5"/></transform><emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>',
+        (0.2, 0.1, 3.0),
+    ),
+    "sun": (
+        '<emitter type="sun"><float name="elevation" value="40"/><float name="angular_radius" value="0.05"/></emitter>',
+        (0, 0, 0),
+    ),
     "constant": ('<emitter type="constant"><rgb name="radiance" value="1,1,1"/></emitter>', (0, 0, 0)),
 }
 
@@ -70,9 +80,14 @@ def test_envmap_sampling(tmp_path):
     img = rng.uniform(0, 1, (16, 32, 3)).astype(np.float32) ** 4
     img[4:6, 10:14] = 50  # a bright "sun"
     volpath.write_exr(tmp_path / "env.exr", img)
-    scene = volpath.load_string(S.scene(S.camera(res=4), '<emitter type="envmap"><string name="filename" value="env.exr"/>'
-                                        '<transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>'),
-                                base_dir=str(tmp_path))
+    scene = volpath.load_string(
+        S.scene(
+            S.camera(res=4),
+            '<emitter type="envmap"><string name="filename" value="env.exr"/>'
+            '<transform name="to_world"><rotate y="1" angle="40"/></transform></emitter>',
+        ),
+        base_dir=str(tmp_path),
+    )
     dirs, pdfs = _core.light_sample(scene.native, 0, (0, 0, 0), uniforms(N, 2))
     ok = pdfs > 0
     pdf = lambda d: _core.light_pdf(scene.native, 0, (0, 0, 0), d)
@@ -81,8 +96,9 @@ def test_envmap_sampling(tmp_path):
 
 
 @pytest.mark.parametrize("wi", [(0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.95, 0.1, 0.3)])
-@pytest.mark.parametrize("bsdf", ['<bsdf type="diffuse"/>',
-                                  '<bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>'])
+@pytest.mark.parametrize(
+    "bsdf", ['<bsdf type="diffuse"/>', '<bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>']
+)
 def test_bsdf_sampling(bsdf, wi):
     scene = volpath.load_string(S.scene(S.camera(res=4), f'<shape type="sphere">{bsdf}</shape>'))
     dirs, pdfs = _core.bsdf_sample(scene.native, 0, wi, uniforms(N, 3))
@@ -92,10 +108,14 @@ def test_bsdf_sampling(bsdf, wi):
     assert chi2_directions(dirs[ok], pdf, N) > P_MIN
 
 
-@pytest.mark.parametrize("c, o, d, t0, t1", [
-    ((0.3, 1.0, 2.0), (0, 0, 0), (0, 0, 1), 0.0, 5.0),         # light beside the segment
-    ((0.0, 0.01, -3.0), (0, 0, 0), (0, 0, 1), 0.0, 5.0),       # behind the start, nearly on the line
-    ((1.0, -2.0, 40.0), (0, 0, 0), (0.6, 0, 0.8), 0.5, np.inf)])  # an unbounded segment
+@pytest.mark.parametrize(
+    "c, o, d, t0, t1",
+    [
+        ((0.3, 1.0, 2.0), (0, 0, 0), (0, 0, 1), 0.0, 5.0),  # light beside the segment
+        ((0.0, 0.01, -3.0), (0, 0, 0), (0, 0, 1), 0.0, 5.0),  # behind the start, nearly on the line
+        ((1.0, -2.0, 40.0), (0, 0, 0), (0.6, 0, 0.8), 0.5, np.inf),
+    ],
+)  # an unbounded segment
 def test_equiangular_distances(c, o, d, t0, t1):
     """Equiangular sampling toward a point light: the pdf is the sampler's density (dt/du
     = 1 / pdf by central differences, 0.1 %), proportional to 1 / distance^2 to the light,
@@ -118,7 +138,11 @@ def test_equiangular_distances(c, o, d, t0, t1):
 POINT_NEAR = (S.point_light("0.05, 0, 1", "1, 1, 1"), (0.05, 0, 1), None)
 POINT_FAR = (S.point_light("0, 3, 0", "1, 1, 1"), (0, 3, 0), None)
 AREA = (S.area_light_above(y=3, size=1.0), (0, 3, 0), None)
-SUN_OBLIQUE = ('<emitter type="directional"><vector name="direction" value="-0.6, 0, -0.8"/></emitter>', None, (0.6, 0, 0.8))
+SUN_OBLIQUE = (
+    '<emitter type="directional"><vector name="direction" value="-0.6, 0, -0.8"/></emitter>',
+    None,
+    (0.6, 0, 0.8),
+)
 
 
 def _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, t):
@@ -142,14 +166,18 @@ def _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, t):
     return exponential, D / ((theta[1] - theta[0]) * (D * D + (t - t_closest) ** 2))
 
 
-@pytest.mark.parametrize("light, o, d, t0, t1, sigma_t, channel, near", [
-    (POINT_FAR, (0, 0, 0), (0.6, 0.8, 0), 0.0, 1.5, (2, 1, 0.5), 0, False),   # toward the light
-    (POINT_FAR, (0, 0, 0), (0.6, 0.8, 0), 0.0, 1.5, (2, 1, 0.5), 2, False),
-    (POINT_FAR, (0, 0.5, 0), (0, -1, 0), 0.1, 4.0, (3, 3, 3), 0, False),      # away from it
-    (POINT_NEAR, (0, 0, 0), (0, 0, 1), 0.0, 3.0, (5, 5, 5), 0, True),         # past it: two distances
-    (POINT_NEAR, (0, 0, 0), (0, 0, 1), 0.0, np.inf, (0.5, 1, 2), 1, True),    # unbounded
-    (SUN_OBLIQUE, (0, 0, 0), (0, 0, 1), 0.0, np.inf, (1, 0.5, 0.25), 1, False),
-    (AREA, (0, 0, 0), (0.3, 0.9, 0.3), 0.0, 2.0, (6, 6, 6), 0, False)])
+@pytest.mark.parametrize(
+    "light, o, d, t0, t1, sigma_t, channel, near",
+    [
+        (POINT_FAR, (0, 0, 0), (0.6, 0.8, 0), 0.0, 1.5, (2, 1, 0.5), 0, False),  # toward the light
+        (POINT_FAR, (0, 0, 0), (0.6, 0.8, 0), 0.0, 1.5, (2, 1, 0.5), 2, False),
+        (POINT_FAR, (0, 0.5, 0), (0, -1, 0), 0.1, 4.0, (3, 3, 3), 0, False),  # away from it
+        (POINT_NEAR, (0, 0, 0), (0, 0, 1), 0.0, 3.0, (5, 5, 5), 0, True),  # past it: two distances
+        (POINT_NEAR, (0, 0, 0), (0, 0, 1), 0.0, np.inf, (0.5, 1, 2), 1, True),  # unbounded
+        (SUN_OBLIQUE, (0, 0, 0), (0, 0, 1), 0.0, np.inf, (1, 0.5, 0.25), 1, False),
+        (AREA, (0, 0, 0), (0.3, 0.9, 0.3), 0.0, 2.0, (6, 6, 6), 0, False),
+    ],
+)
 def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
     """Distances drawn for a light along a medium segment: one exponential toward the light,
     and an equiangular one where the light is near. Each follows its density (chi-square
@@ -179,7 +207,9 @@ def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
             exponential, equiangular = _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)
             return exponential[channel] if k == 0 else equiangular
 
-        t_ref, _ = _core.light_distance_sample(scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1, seed=2)[:, 0])
+        t_ref, _ = _core.light_distance_sample(
+            scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1, seed=2)[:, 0]
+        )
         edges = np.concatenate([[t0], np.quantile(t_ref, np.linspace(0, 1, 41)[1:-1]), [t1]])
         expected_counts = np.array([integral(own, a, b) for a, b in zip(edges[:-1], edges[1:])]) * N
         assert chi2_pooled(np.histogram(t, edges)[0], expected_counts) > P_MIN

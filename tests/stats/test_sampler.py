@@ -16,7 +16,9 @@ def test_2d_dimensions_are_0_2_nets(dimension):
     for pixel in range(20):
         pts = _core.sampler_values(3, pixel, 64, dimension + 1, True, True)[:, dimension]
         for k in range(7):
-            cells = np.floor(pts[:, 0] * 2 ** k).astype(int) * 2 ** (6 - k) + np.floor(pts[:, 1] * 2 ** (6 - k)).astype(int)
+            cells = np.floor(pts[:, 0] * 2**k).astype(int) * 2 ** (6 - k) + np.floor(pts[:, 1] * 2 ** (6 - k)).astype(
+                int
+            )
             assert np.array_equal(np.sort(cells), np.arange(64)), (pixel, k)
 
 
@@ -57,7 +59,7 @@ def test_a_chain_of_choices_from_one_uniform_keeps_their_probabilities(low_discr
     probabilities = np.concatenate([[0.3, 0.0, 0.5], rng.uniform(0.08, 0.12, 57)])
     counts = np.array(_core.choice_chain_counts(list(probabilities), 7, 3125, 32, low_discrepancy))
     survive = np.concatenate([[1.0], np.cumprod(1 - probabilities)])
-    assert 1 / survive[-1] > 2 ** 10
+    assert 1 / survive[-1] > 2**10
     expected = np.append(probabilities * survive[:-1], survive[-1]) * counts.sum()
     assert counts[1] == 0  # never made with probability 0
     keep = expected > 0
@@ -94,13 +96,19 @@ def test_error_of_a_smooth_integrand_falls_faster():
 def test_sobol_renders_converge_to_the_independent_answer():
     """Unbiased: the mean over seeds of low-discrepancy renders of a single-scattering scene
     agrees with independent-sampling renders, block by block, within 5 standard errors."""
+    import scenes as S
     import volpath
     from volpath.testing import max_z, render_batches
 
-    import scenes as S
-
-    scene = volpath.load_string(S.scene(S.camera(res=16, spp=32), S.homogeneous("m", "1, 2, 3", "0.8"),
-                                        S.medium_sphere("m"), S.point_light("2, 2, 2", "20, 20, 20"), max_depth=2))
+    scene = volpath.load_string(
+        S.scene(
+            S.camera(res=16, spp=32),
+            S.homogeneous("m", "1, 2, 3", "0.8"),
+            S.medium_sphere("m"),
+            S.point_light("2, 2, 2", "20, 20, 20"),
+            max_depth=2,
+        )
+    )
     a, se_a = render_batches(volpath.render, scene, 6, block=4, sampler="sobol")
     b, se_b = render_batches(volpath.render, scene, 6, block=4, sampler="independent")
     assert max_z(a, se_a, b, se_b) < 5

@@ -6,9 +6,21 @@ from ..errors import SceneError, where
 from . import kind_of
 
 # Named indices of refraction (Mitsuba's table, the common entries).
-IOR = {"vacuum": 1.0, "air": 1.000277, "water": 1.3330, "water ice": 1.31, "fused quartz": 1.458,
-       "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
-       "sodium chloride": 1.544, "amber": 1.55, "pet": 1.575, "diamond": 2.419}
+IOR = {
+    "vacuum": 1.0,
+    "air": 1.000277,
+    "water": 1.3330,
+    "water ice": 1.31,
+    "fused quartz": 1.458,
+    "pyrex": 1.470,
+    "acrylic glass": 1.49,
+    "polypropylene": 1.49,
+    "bk7": 1.5046,
+    "sodium chloride": 1.544,
+    "amber": 1.55,
+    "pet": 1.575,
+    "diamond": 2.419,
+}
 
 
 def build(b, d, twosided=False):
@@ -44,24 +56,35 @@ def build(b, d, twosided=False):
         alpha = p.float("alpha", 0.1 if p.type == "roughplastic" else 0.001, minimum=0.0)
         eta = ior(p, "int_ior", 1.49) / ior(p, "ext_ior", 1.000277)
         p.raw("nonlinear"), p.raw("sample_visible")
-        index = n.add_bsdf_roughplastic(reflectance(p, "diffuse_reflectance", 0.5),
-                                        reflectance(p, "specular_reflectance", 1.0),
-                                        max(alpha, 1e-3), eta, twosided)
+        index = n.add_bsdf_roughplastic(
+            reflectance(p, "diffuse_reflectance", 0.5),
+            reflectance(p, "specular_reflectance", 1.0),
+            max(alpha, 1e-3),
+            eta,
+            twosided,
+        )
     elif p.type == "principled":
         # Mapped onto the rough plastic: base colour under a GGX coat; metals tint the coat.
         base = reflectance(p, "base_color", 0.5)
         metallic = p.float("metallic", 0.0, minimum=0.0)
         roughness = p.float("roughness", 0.5, minimum=0.0)
         eta = p.float("eta", 1.5, positive=True)
-        for ignored in ("specular", "spec_tint", "anisotropic", "sheen", "sheen_tint", "clearcoat",
-                        "clearcoat_gloss", "spec_trans", "flatness"):
+        for ignored in (
+            "specular",
+            "spec_tint",
+            "anisotropic",
+            "sheen",
+            "sheen_tint",
+            "clearcoat",
+            "clearcoat_gloss",
+            "spec_trans",
+            "flatness",
+        ):
             p.raw(ignored)
         specular = (1 - metallic) * np.ones(3) + metallic * base
-        index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness ** 2, 1e-3),
-                                        eta, twosided)
+        index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness**2, 1e-3), eta, twosided)
     else:
-        raise p.error("unknown bsdf (expected one of: null, diffuse, dielectric, roughplastic, "
-                      "principled, twosided)")
+        raise p.error("unknown bsdf (expected one of: null, diffuse, dielectric, roughplastic, principled, twosided)")
     p.check()
     b.building.discard(id(d))
     b.bsdfs[key] = index

@@ -22,13 +22,13 @@ class Builder:
         self.native = _core.Scene()
         self.ids = {}
         self._index_ids(d)
-        self.media = {}   # id(dict) -> native index
+        self.media = {}  # id(dict) -> native index
         self.bsdfs = {}
         self.building = set()
         self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
         self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
-        self.atmospheres = []    # (native medium index, centre, top radius)
+        self.atmospheres = []  # (native medium index, centre, top radius)
         self.loc = d.get("__loc__")
 
     def params(self, d, kind):
@@ -38,7 +38,7 @@ class Builder:
         return p
 
     def _index_ids(self, d):
-        for k, v in d.items():
+        for v in d.values():
             if isinstance(v, dict) and v.get("type") != "ref":
                 if "__id__" in v:
                     if v["__id__"] in self.ids:
@@ -83,8 +83,10 @@ class Builder:
         changed = [k for k in d if d[k] is not self.d[k]]
         for k in changed:
             kind = kind_of(d[k]) if isinstance(d[k], dict) else None
-            if not (kind == "sensor" or (kind == "emitter" and k in self.lights and
-                                         d[k].get("type") == self.d[k].get("type"))):
+            if not (
+                kind == "sensor"
+                or (kind == "emitter" and k in self.lights and d[k].get("type") == self.d[k].get("type"))
+            ):
                 return None
 
         def update():
@@ -126,7 +128,7 @@ class Builder:
                 sensor = v
         # Declared media first: an atmosphere brings its own geometry, and a camera inside
         # it is inside it without saying so.
-        for key, v in items:
+        for _, v in items:
             if kind_of(v) == "medium":
                 media.build(self, v)
         for key, v in items:
@@ -142,7 +144,7 @@ class Builder:
         settings = integrators.build(self, integrator)
         settings["spp"] = self.spp = sensors.build(self, sensor)
         # Declared BSDFs that nothing references are still checked.
-        for key, v in items:
+        for _, v in items:
             if kind_of(v) == "bsdf":
                 self.bsdf(v)
         scene.check()

@@ -79,6 +79,6 @@ def build(b, d, key=None):
         raise p.error("unknown emitter (expected one of: point, directional, sun, constant, envmap, area)")
     p.raw("sampling_weight")
     p.check()
-    b.summary["emitters"][position:position + 1] = [info]
+    b.summary["emitters"][position : position + 1] = [info]
     if key is not None and index is not None:
         b.lights[key] = (index, position)

@@ -3,16 +3,14 @@ all to Volpath's render settings."""
 
 TRACERS = ("absorption", "single", "multiple", "nee_mis", "null_scattering")
 # lajolla's integrator `version` numbering of its staged tracers.
-LAJOLLA_VERSIONS = {1: "absorption", 2: "single", 3: "multiple", 4: "nee_mis", 5: "nee_mis",
-                    6: "null_scattering"}
+LAJOLLA_VERSIONS = {1: "absorption", 2: "single", 3: "multiple", 4: "nee_mis", 5: "nee_mis", 6: "null_scattering"}
 # Mitsuba's integrators leave the choice to the scene analysis (tracer="auto"); a lajolla
 # `version` names one tracer explicitly.
 INTEGRATORS = {"volpath": "auto", "volpathmis": "auto", "path": "auto"}
 
 
 def build(b, d):
-    settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "light_distances": True,
-                "tracer": "auto"}
+    settings = {"max_depth": -1, "rr_depth": 5, "max_null_collisions": 1000, "light_distances": True, "tracer": "auto"}
     if d is None:
         return settings
     p = b.params(d, "integrator")

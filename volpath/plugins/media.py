@@ -13,7 +13,7 @@ from .params import RGB_WAVELENGTHS, spectral_colour
 def rayleigh_coefficient(wavelength_nm, n=1.00029, N=2.504e25):
     """Rayleigh scattering at sea level, 8 pi^3 (n^2 - 1)^2 / (3 N lambda^4), per metre."""
     lam = np.asarray(wavelength_nm, dtype=np.float64) * 1e-9
-    return 8 * math.pi ** 3 * (n * n - 1) ** 2 / (3 * N * lam ** 4)
+    return 8 * math.pi**3 * (n * n - 1) ** 2 / (3 * N * lam**4)
 
 
 # Atmosphere presets, in metres. Bruneton 2017 / Hillaire 2020 is the physically sound
@@ -23,14 +23,32 @@ def rayleigh_coefficient(wavelength_nm, n=1.00029, N=2.504e25):
 # Atmosphere presets, in metres. Bruneton 2017 / Hillaire 2020 is the physically sound
 # default; "report" reproduces the physics of the original course report.
 ATMOSPHERE_PRESETS = {
-    "bruneton": dict(planet_radius=6360e3, atmosphere_height=60e3,
-                     rayleigh_scattering=(5.802e-6, 13.558e-6, 33.1e-6), rayleigh_height=8e3,
-                     mie_scattering=3.996e-6, mie_extinction=4.440e-6, mie_height=1.2e3, g=0.8,
-                     ozone=True, ozone_absorption=(0.650e-6, 1.881e-6, 0.085e-6), ground_albedo=0.1),
-    "report": dict(planet_radius=6378e3, atmosphere_height=60e3,
-                   rayleigh_scattering=tuple(rayleigh_coefficient(RGB_WAVELENGTHS)), rayleigh_height=8.5e3,
-                   mie_scattering=3.996e-6, mie_extinction=3.996e-6 / 0.9, mie_height=1.2e3, g=0.76,
-                   ozone=False, ozone_absorption=(0.0, 0.0, 0.0), ground_albedo=(0.25, 0.25, 0.35)),
+    "bruneton": dict(
+        planet_radius=6360e3,
+        atmosphere_height=60e3,
+        rayleigh_scattering=(5.802e-6, 13.558e-6, 33.1e-6),
+        rayleigh_height=8e3,
+        mie_scattering=3.996e-6,
+        mie_extinction=4.440e-6,
+        mie_height=1.2e3,
+        g=0.8,
+        ozone=True,
+        ozone_absorption=(0.650e-6, 1.881e-6, 0.085e-6),
+        ground_albedo=0.1,
+    ),
+    "report": dict(
+        planet_radius=6378e3,
+        atmosphere_height=60e3,
+        rayleigh_scattering=tuple(rayleigh_coefficient(RGB_WAVELENGTHS)),
+        rayleigh_height=8.5e3,
+        mie_scattering=3.996e-6,
+        mie_extinction=3.996e-6 / 0.9,
+        mie_height=1.2e3,
+        g=0.76,
+        ozone=False,
+        ozone_absorption=(0.0, 0.0, 0.0),
+        ground_albedo=(0.25, 0.25, 0.35),
+    ),
 }
 
 
@@ -83,8 +101,10 @@ class Scene:
         return self.native.height
 
     def __repr__(self):
-        return (f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
-                f"tracer={self.tracer}, max_depth={self.max_depth}>")
+        return (
+            f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
+            f"tracer={self.tracer}, max_depth={self.max_depth}>"
+        )
 
 
 def build(b, d):
@@ -109,10 +129,19 @@ def build(b, d):
         if np.any(Le > 0) and not np.any(sigma_a > 0):
             raise p.error("'radiance' needs absorption: the medium emits sigma_a * radiance")
         index = b.native.add_medium_homogeneous(tuple(sigma_a), tuple(sigma_s), g, tuple(Le))
-        b.summary["media"].append({"index": index, "type": "homogeneous", "sigma_t": (sigma_a + sigma_s).tolist(),
-                                      "emissive": bool(np.any(Le > 0)),
-                                      "albedo": np.divide(sigma_s, sigma_a + sigma_s, out=np.zeros(3), where=(sigma_a + sigma_s) > 0).tolist(),
-                                      "g": g, "loc": p.loc})
+        b.summary["media"].append(
+            {
+                "index": index,
+                "type": "homogeneous",
+                "sigma_t": (sigma_a + sigma_s).tolist(),
+                "emissive": bool(np.any(Le > 0)),
+                "albedo": np.divide(
+                    sigma_s, sigma_a + sigma_s, out=np.zeros(3), where=(sigma_a + sigma_s) > 0
+                ).tolist(),
+                "g": g,
+                "loc": p.loc,
+            }
+        )
     elif p.type == "heterogeneous":
         density = spectral_grid(b, volumes.build(b, p, "density" if p.has("density") else "sigma_t", 1.0))
         albedo_grid = spectral_grid(b, volumes.build(b, p, "albedo", 0.75))
@@ -126,16 +155,31 @@ def build(b, d):
         if not 0 <= majorant_res <= 64:
             raise p.error("'majorant_resolution' must be in 0..64 (0: automatic, 1: one global majorant)")
         index = b.native.add_medium_grid(
-            density.native, density.world_to_grid,
+            density.native,
+            density.world_to_grid,
             albedo_grid=albedo_grid and albedo_grid.native,
-            albedo_world_to_grid=albedo_grid and albedo_grid.world_to_grid, albedo=tuple(albedo),
-            scale=scale, g=g, majorant_res=majorant_res, Le_grid=Le_grid and Le_grid.native,
-            Le_world_to_grid=Le_grid and Le_grid.world_to_grid, Le_scale=tuple(Le_scale))
-        b.summary["media"].append({"index": index, "type": "heterogeneous",
-                                      "sigma_t_range": [density.min() * scale, density.max() * scale],
-                                      "resolution": list(density.shape[2::-1]), "g": g, "loc": p.loc,
-                                      "memory": density.nbytes, "emissive": bool(np.any(Le_scale > 0)),
-                                      "albedo": [albedo_grid.max()] * 3 if albedo_grid else albedo.tolist()})
+            albedo_world_to_grid=albedo_grid and albedo_grid.world_to_grid,
+            albedo=tuple(albedo),
+            scale=scale,
+            g=g,
+            majorant_res=majorant_res,
+            Le_grid=Le_grid and Le_grid.native,
+            Le_world_to_grid=Le_grid and Le_grid.world_to_grid,
+            Le_scale=tuple(Le_scale),
+        )
+        b.summary["media"].append(
+            {
+                "index": index,
+                "type": "heterogeneous",
+                "sigma_t_range": [density.min() * scale, density.max() * scale],
+                "resolution": list(density.shape[2::-1]),
+                "g": g,
+                "loc": p.loc,
+                "memory": density.nbytes,
+                "emissive": bool(np.any(Le_scale > 0)),
+                "albedo": [albedo_grid.max()] * 3 if albedo_grid else albedo.tolist(),
+            }
+        )
     elif p.type == "atmosphere":
         index = atmosphere(b, p, scale)
     else:
@@ -214,13 +258,17 @@ def atmosphere(b, p, scale):
     # Coefficients are given at 680 / 550 / 440 nm; a spectral pass takes Rayleigh's
     # lambda^-4 and ozone's band through the 550 nm value and Mie's mean (grey).
     raw = dict(spectral=False)
-    rayleigh = p.rgb("rayleigh_scattering", {"type": "rgb", "value": list(preset["rayleigh_scattering"])}, **raw) * per_unit
+    rayleigh = (
+        p.rgb("rayleigh_scattering", {"type": "rgb", "value": list(preset["rayleigh_scattering"])}, **raw) * per_unit
+    )
     mie_s = p.rgb("mie_scattering", preset["mie_scattering"], **raw) * per_unit
     mie_t = p.rgb("mie_extinction", preset["mie_extinction"], **raw) * per_unit
     if np.any(mie_t < mie_s):
         raise p.error("'mie_extinction' must be at least 'mie_scattering'")
     ozone = p.bool("ozone", preset["ozone"])
-    ozone_sigma = p.rgb("ozone_absorption", {"type": "rgb", "value": list(preset["ozone_absorption"])}, **raw) * per_unit
+    ozone_sigma = (
+        p.rgb("ozone_absorption", {"type": "rgb", "value": list(preset["ozone_absorption"])}, **raw) * per_unit
+    )
     if b.wavelengths is not None:
         rayleigh = spectral.rayleigh(rayleigh[1], b.wavelengths)
         mie_s, mie_t = np.full(3, mie_s.mean()), np.full(3, mie_t.mean())
@@ -244,16 +292,45 @@ def atmosphere(b, p, scale):
     if np.any(albedo > 1):
         raise p.error("'ground_albedo' must be at most 1")
     n = b.native
-    index = n.add_medium_atmosphere(tuple(center), R, R + H, tuple(rayleigh), h_r, tuple(mie_s),
-                                    tuple(mie_t - mie_s), h_m, g,
-                                    tuple(ozone_sigma if ozone else np.zeros(3)), pieces, sun, flight, sky_map)
-    n.add_sphere(tuple(center), R + H, False, n.add_bsdf_null(), interior=index, exterior=-1,
-                 medium_interface=True)
+    index = n.add_medium_atmosphere(
+        tuple(center),
+        R,
+        R + H,
+        tuple(rayleigh),
+        h_r,
+        tuple(mie_s),
+        tuple(mie_t - mie_s),
+        h_m,
+        g,
+        tuple(ozone_sigma if ozone else np.zeros(3)),
+        pieces,
+        sun,
+        flight,
+        sky_map,
+    )
+    n.add_sphere(tuple(center), R + H, False, n.add_bsdf_null(), interior=index, exterior=-1, medium_interface=True)
     if p.bool("ground", True):
-        n.add_sphere(tuple(center), R, False, n.add_bsdf_diffuse(tuple(albedo), False), interior=-1,
-                     exterior=index, medium_interface=True)
+        n.add_sphere(
+            tuple(center),
+            R,
+            False,
+            n.add_bsdf_diffuse(tuple(albedo), False),
+            interior=-1,
+            exterior=index,
+            medium_interface=True,
+        )
     b.atmospheres.append((index, center, R + H))
-    b.summary["media"].append({"index": index, "type": "atmosphere", "mode": mode, "planet_radius": R, "height": H,
-                                  "sigma_t": (rayleigh + mie_t + (ozone_sigma if ozone else 0)).tolist(),
-                                  "albedo": [float("nan")] * 3, "g": g, "loc": p.loc})
+    b.summary["media"].append(
+        {
+            "index": index,
+            "type": "atmosphere",
+            "mode": mode,
+            "planet_radius": R,
+            "height": H,
+            "sigma_t": (rayleigh + mie_t + (ozone_sigma if ozone else 0)).tolist(),
+            "albedo": [float("nan")] * 3,
+            "g": g,
+            "loc": p.loc,
+        }
+    )
     return index

@@ -36,8 +36,7 @@ def build(b, d):
             raise fp.error("unknown film (expected 'hdrfilm')")
         width, height = fp.int("width", 768), fp.int("height", 576)
         if not (1 <= width <= 1 << 15 and 1 <= height <= 1 << 15) or width * height > 1 << 26:
-            raise fp.error(f"film size {width}x{height} out of range (each side 1..32768, "
-                           f"at most {1 << 26} pixels)")
+            raise fp.error(f"film size {width}x{height} out of range (each side 1..32768, at most {1 << 26} pixels)")
         fp.raw("pixel_format"), fp.raw("component_format"), fp.raw("file_format"), fp.raw("banner")
         fp.raw("high_quality_edges")
         rfilter = None
@@ -104,6 +103,12 @@ def build(b, d):
             if np.linalg.norm(to_world[:3, 3] - center) < top:
                 medium_index = index
     b.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian, shift_x, shift_y)
-    b.summary["camera"] = {"width": width, "height": height, "fov": fov, "fov_axis": axis,
-                              "origin": to_world[:3, 3].tolist(), "medium": medium_index}
+    b.summary["camera"] = {
+        "width": width,
+        "height": height,
+        "fov": fov,
+        "fov_axis": axis,
+        "origin": to_world[:3, 3].tolist(),
+        "medium": medium_index,
+    }
     return spp

@@ -40,21 +40,36 @@ def build(b, d):
     if bsdf_index is None:
         bsdf_index = bsdfs.default(b)
     medium_interface = p.has("interior") or p.has("exterior")
-    common = dict(bsdf=bsdf_index, interior=interior, exterior=exterior, medium_interface=medium_interface,
-                  radiance=None if radiance is None else tuple(radiance))
+    common = dict(
+        bsdf=bsdf_index,
+        interior=interior,
+        exterior=exterior,
+        medium_interface=medium_interface,
+        radiance=None if radiance is None else tuple(radiance),
+    )
     flip = p.bool("flip_normals", False)
     if p.type == "sphere":
         center = transform_points(to_world, p.vec3("center", [0, 0, 0])[None])[0]
         radius = p.float("radius", 1.0, positive=True)
         lin = to_world[:3, :3]
         scales = np.linalg.norm(lin, axis=0)
-        if not np.allclose(scales, scales[0], rtol=1e-6) or not np.allclose(lin.T @ lin, np.diag(scales ** 2), atol=1e-9 * scales.max() ** 2):
+        if not np.allclose(scales, scales[0], rtol=1e-6) or not np.allclose(
+            lin.T @ lin, np.diag(scales**2), atol=1e-9 * scales.max() ** 2
+        ):
             raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
         radius *= scales[0]
         b.native.add_sphere(tuple(center), radius, flip, **common)
         bounds = np.array([center - radius, center + radius])
-        b.summary["shapes"].append({"type": "sphere", "center": center.tolist(), "radius": radius,
-                                       "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
+        b.summary["shapes"].append(
+            {
+                "type": "sphere",
+                "center": center.tolist(),
+                "radius": radius,
+                "emitter": radiance is not None,
+                "bsdf": bsdf_type,
+                "loc": p.loc,
+            }
+        )
     elif p.type == "cube" and radiance is None and np.linalg.cond(to_world[:3, :3]) < 1e12:
         # An analytic box (one primitive); emitting or flattened cubes stay meshes.
         # Under a mirroring map the mesh's faces turn inward; the box's do too.
@@ -63,8 +78,7 @@ def build(b, d):
         b.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
         corners = transform_points(to_world, cube()[0])
         bounds = np.array([corners.min(axis=0), corners.max(axis=0)])
-        b.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type,
-                                       "loc": p.loc})
+        b.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type, "loc": p.loc})
     else:
         normals = None
         if p.type == "rectangle":
@@ -89,8 +103,15 @@ def build(b, d):
                 normals = -normals
         b.native.add_mesh(positions, triangles, normals, **common)
         bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
-        b.summary["shapes"].append({"type": p.type, "triangles": int(len(triangles)),
-                                       "emitter": radiance is not None, "bsdf": bsdf_type, "loc": p.loc})
+        b.summary["shapes"].append(
+            {
+                "type": p.type,
+                "triangles": int(len(triangles)),
+                "emitter": radiance is not None,
+                "bsdf": bsdf_type,
+                "loc": p.loc,
+            }
+        )
     if interior >= 0:
         b.medium_bounds.setdefault(interior, []).append(bounds)
     if radiance is not None:
@@ -104,8 +125,11 @@ def mesh_arrays(p):
     normals = p.raw("normals")
     if positions.ndim != 2 or positions.shape[1] != 3 or not np.all(np.isfinite(positions)):
         raise p.error("'positions' must be a finite (n, 3) array")
-    if triangles.ndim != 2 or triangles.shape[1] != 3 or (triangles.size and (
-            triangles.min() < 0 or triangles.max() >= len(positions))):
+    if (
+        triangles.ndim != 2
+        or triangles.shape[1] != 3
+        or (triangles.size and (triangles.min() < 0 or triangles.max() >= len(positions)))
+    ):
         raise p.error("'indices' must be an (m, 3) array of vertex indices")
     if normals is not None:
         normals = np.asarray(normals, dtype=np.float64)
@@ -140,6 +164,9 @@ def cube():
                 p[axis], p[u], p[v] = sign, a, b
                 positions.append(p)
             # counter-clockwise seen from outside
-            triangles += [[base, base + 1, base + 2], [base, base + 2, base + 3]] if sign > 0 else \
-                [[base, base + 2, base + 1], [base, base + 3, base + 2]]
+            triangles += (
+                [[base, base + 1, base + 2], [base, base + 2, base + 3]]
+                if sign > 0
+                else [[base, base + 2, base + 1], [base, base + 3, base + 2]]
+            )
     return np.array(positions), np.array(triangles, dtype=np.uint32)

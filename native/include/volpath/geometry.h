@@ -119,8 +119,7 @@ private:
 
     Bounds primitive_bounds(const Primitive &p) const;
     bool overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const;
-    uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
-                             uint32_t begin, uint32_t end);
+    uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin, uint32_t end);
     struct PreparedRay;  // per-ray set-up of the slab and triangle tests
     // The closest hit so far: its distance, and barycentrics for triangles. The point and
     // normals are worked out once, for the hit that stays (finish).
@@ -139,7 +138,6 @@ private:
 
 // Ray-sphere distances in the numerically stable form (both roots; t0 <= t1).
 // Returns false when the line misses.
-bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0,
-                  Real &t1);
+bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0, Real &t1);
 
 }  // namespace volpath

@@ -50,8 +50,7 @@ struct TracerConfig {
 };
 
 // Radiance arriving along `ray`, which starts in `medium` (-1: vacuum).
-Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler,
-                  const TracerConfig &config);
+Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config);
 
 // Throws std::invalid_argument if the tracer cannot render the scene's media.
 void check_tracer_supports(const Scene &scene, Tracer tracer);

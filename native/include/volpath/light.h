@@ -50,7 +50,8 @@ struct SunLight {
 };
 // The sun of irradiance E at normal incidence, angular radius in (0, 0.5) rad.
 inline SunLight sun_light(const Vec3 &to_sun, Real angular_radius, const Spectrum &E) {
-    if (!(angular_radius > 0 && angular_radius < 0.5)) throw std::invalid_argument("sun angular radius must be in (0, 0.5) rad");
+    if (!(angular_radius > 0 && angular_radius < 0.5))
+        throw std::invalid_argument("sun angular radius must be in (0, 0.5) rad");
     const Real sin_r = std::sin(angular_radius);
     return {normalize(to_sun), std::cos(angular_radius), E / (kPi * sin_r * sin_r)};
 }
@@ -63,20 +64,18 @@ inline bool is_constant_environment(const Light &l) {
 }
 
 struct LightSample {
-    Vec3 d;           // unit, from the reference point towards the light
-    Real dist = 0;    // to the light; infinity for lights at infinity
-    Spectrum L;       // radiance (or intensity / dist^2, or irradiance for delta lights)
-    Real pdf = 0;     // solid angle; 1 for delta lights
+    Vec3 d;         // unit, from the reference point towards the light
+    Real dist = 0;  // to the light; infinity for lights at infinity
+    Spectrum L;     // radiance (or intensity / dist^2, or irradiance for delta lights)
+    Real pdf = 0;   // solid angle; 1 for delta lights
     bool delta = false;
 };
 
 void prepare_light(Light &light, const Geometry &geometry);
-bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref, Vec2 u,
-                  LightSample &out);
+bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref, Vec2 u, LightSample &out);
 // Solid-angle pdf of reaching the emitter along d from ref; `its` is the point hit on
 // an area light (ignored for lights at infinity).
-Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d,
-               const Intersection &its);
+Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d, const Intersection &its);
 // Radiance from a light at infinity (environment or sun) along direction d, which points
 // away from the scene.
 Spectrum infinite_radiance(const Light &light, const Vec3 &d);

@@ -48,8 +48,7 @@ struct LightDistances {
     int count = 1;
     Real t0, t1;
 
-    LightDistances(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t)
-        : t0(ray.t_min), t1(t_end) {
+    LightDistances(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t) : t0(ray.t_min), t1(t_end) {
         Vec3 w;
         if (const Vec3 *c = light_position(light)) {
             w = normalize(*c - ray.at(t0));
@@ -86,16 +85,20 @@ struct LightDistances {
             return true;
         }
         const Real r = rate[channel], length = t1 - t0;
-        if (r > 0) t = t0 + std::min(-std::log1p(u * std::expm1(-r * length)) / r, length);
-        else if (std::isfinite(length)) t = t0 + u * length;
-        else return false;
+        if (r > 0)
+            t = t0 + std::min(-std::log1p(u * std::expm1(-r * length)) / r, length);
+        else if (std::isfinite(length))
+            t = t0 + u * length;
+        else
+            return false;
         return true;
     }
 };
 
 // The density per channel of the distances drawn for `light` on [ray.t_min, t_end] at t
 // (0 for environments).
-inline Spectrum light_distance_density(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t, Real t) {
+inline Spectrum light_distance_density(const Light &light, const Ray &ray, Real t_end, const Spectrum &sigma_t,
+                                       Real t) {
     if (std::holds_alternative<EnvironmentLight>(light)) return Spectrum(0.0);
     return LightDistances(light, ray, t_end, sigma_t).density(t);
 }

@@ -56,12 +56,8 @@ inline Vec3 cross(const Vec3 &a, const Vec3 &b) {
 inline Real length_squared(const Vec3 &a) { return dot(a, a); }
 inline Real length(const Vec3 &a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalize(const Vec3 &a) { return a / length(a); }
-inline Vec3 min(const Vec3 &a, const Vec3 &b) {
-    return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
-}
-inline Vec3 max(const Vec3 &a, const Vec3 &b) {
-    return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)};
-}
+inline Vec3 min(const Vec3 &a, const Vec3 &b) { return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)}; }
+inline Vec3 max(const Vec3 &a, const Vec3 &b) { return {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)}; }
 inline Vec3 abs(const Vec3 &a) { return {std::abs(a.x), std::abs(a.y), std::abs(a.z)}; }
 // Grey arguments (grey media, most of them) take one exp instead of three.
 inline bool operator==(const Vec3 &a, const Vec3 &b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
@@ -73,9 +69,7 @@ inline Vec3 clamp_zero(const Vec3 &a) { return max(a, Vec3(0.0)); }
 inline Real max_component(const Vec3 &a) { return std::max(a.x, std::max(a.y, a.z)); }
 inline Real average(const Vec3 &a) { return (a.x + a.y + a.z) * (1.0 / 3.0); }
 inline bool is_black(const Vec3 &a) { return a.x == 0 && a.y == 0 && a.z == 0; }
-inline bool is_finite(const Vec3 &a) {
-    return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
-}
+inline bool is_finite(const Vec3 &a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
 inline Real luminance(const Spectrum &s) { return 0.2126 * s.x + 0.7152 * s.y + 0.0722 * s.z; }
 // Divides where the divisor is non-zero; 0/0 is 0 (a channel that cannot be sampled).
 inline Vec3 safe_div(const Vec3 &a, const Vec3 &b) {
@@ -109,8 +103,7 @@ struct Transform {
                 m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
     }
     Vec3 vector(const Vec3 &v) const {
-        return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
-                m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+        return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z, m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
                 m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
     }
 };

@@ -27,15 +27,15 @@ struct HomogeneousMedium {
 struct VoxelGrid {
     static constexpr int kLog2Brick = 3, kBrick = 1 << kLog2Brick, kBrickVoxels = kBrick * kBrick * kBrick;
     int res[3] = {0, 0, 0};
-    int bricks[3] = {0, 0, 0};       // ceil(res / 8) per axis
+    int bricks[3] = {0, 0, 0};  // ceil(res / 8) per axis
     int channels = 1;
     std::vector<int32_t> brick_index;  // per brick, x fastest: its slot in `data`, or -1 (all zero)
     std::vector<float> data;           // kBrickVoxels * channels per stored brick, x fastest inside
 
     // The value of voxel (x, y, z), channel c (indices inside the grid).
     float voxel(int x, int y, int z, int c) const {
-        const int32_t b = brick_index[(size_t(z >> kLog2Brick) * bricks[1] + (y >> kLog2Brick)) * bricks[0] +
-                                      (x >> kLog2Brick)];
+        const int32_t b =
+            brick_index[(size_t(z >> kLog2Brick) * bricks[1] + (y >> kLog2Brick)) * bricks[0] + (x >> kLog2Brick)];
         if (b < 0) return 0.0f;
         const int local = (((z & (kBrick - 1)) * kBrick + (y & (kBrick - 1))) * kBrick + (x & (kBrick - 1)));
         return data[(size_t(b) * kBrickVoxels + local) * channels + c];
@@ -77,7 +77,7 @@ struct GridMedium {
     PlacedGrid density;
     PlacedGrid albedo_grid;  // empty: use `albedo`
     Spectrum albedo{1.0};
-    PlacedGrid Le_grid;      // empty: Le = Le_scale everywhere
+    PlacedGrid Le_grid;  // empty: Le = Le_scale everywhere
     Spectrum Le_scale{0.0};
     Real scale = 1;
     // 0: automatic, one cell per ~10 voxels of the density's longest axis but at least 16
@@ -160,12 +160,12 @@ struct SunGuide {
 struct AirSegment {
     static constexpr int kNodes = 5;
     struct Node {
-        Real t, h;                  // distance along the ray, altitude
-        Real rayleigh, mie, ozone;  // densities
+        Real t, h;                        // distance along the ray, altitude
+        Real rayleigh, mie, ozone;        // densities
         Real I_rayleigh, I_mie, I_ozone;  // their integrals from the first node
         Spectrum T;                       // the transmittance from the first node they give
-        Real weight;  // collision density, up to the factor 1 / mass of the last node
-        Real mass;    // integral of the weight from the first node
+        Real weight;                      // collision density, up to the factor 1 / mass of the last node
+        Real mass;                        // integral of the weight from the first node
         // The light the air scatters back along the ray here, times T: the sun's single
         // scattering (sigma_s phase T_sun E), and with a sky map the map's scattered light.
         Spectrum light;
@@ -174,7 +174,7 @@ struct AirSegment {
     Ray ray;
     bool downward = false;  // the ray meets the ground: depths are looked up along -d
     Spectrum tau_start;     // the table's depth to the top from the first node
-    int n = 0;  // nodes used; 0 if the ray misses the air
+    int n = 0;              // nodes used; 0 if the ray misses the air
     Node node[kNodes];
     Spectrum optical_depth(Real t) const;  // from the first node to t
     Spectrum transmittance(Real t) const { return exp(-optical_depth(t)); }
@@ -271,9 +271,8 @@ Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max);
 // collisions, each weighting T closer to 1: where the density is smooth most of the
 // optical depth is the minorant's.
 template <typename Callback>
-Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel,
-                      Sampler &rng, Callback &&callback, Real forced_probability = 0, bool stratified = true,
-                      Spectrum *tau_min = nullptr) {
+Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel, Sampler &rng, Callback &&callback,
+                      Real forced_probability = 0, bool stratified = true, Spectrum *tau_min = nullptr) {
     MajorantIterator pieces(medium, ray, t_max);
     MajorantSegment seg;
     // The majorant optical depth accumulates across pieces until the next tentative
@@ -323,13 +322,14 @@ namespace volpath {
 inline Spectrum ratio_tracking(const Medium &m, const Ray &ray, Real t_max, int channel, Sampler &rng,
                                bool residual = false) {
     Spectrum T(1.0), tau_min(0.0);
-    const Spectrum T_maj = sample_T_maj(m, ray, t_max, channel, rng,
-                                        [&](const Vec3 &, Real, const MediumProperties &mp,
-                                            const Spectrum &sigma_maj, const Spectrum &T_seg) {
-                                            const Spectrum sigma_n = sigma_maj - mp.sigma_a - mp.sigma_s;
-                                            T *= T_seg * sigma_n / (T_seg[channel] * sigma_maj[channel]);
-                                            return true;
-                                        }, 0, true, residual ? &tau_min : nullptr);
+    const Spectrum T_maj = sample_T_maj(
+        m, ray, t_max, channel, rng,
+        [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+            const Spectrum sigma_n = sigma_maj - mp.sigma_a - mp.sigma_s;
+            T *= T_seg * sigma_n / (T_seg[channel] * sigma_maj[channel]);
+            return true;
+        },
+        0, true, residual ? &tau_min : nullptr);
     return T * T_maj / T_maj[channel] * exp(-tau_min);
 }
 }  // namespace volpath

@@ -12,9 +12,9 @@ namespace volpath {
 struct RenderSettings {
     int spp = 16;
     uint64_t seed = 0;
-    uint64_t first_sample = 0;  // sample indices first_sample .. first_sample + spp - 1
+    uint64_t first_sample = 0;    // sample indices first_sample .. first_sample + spp - 1
     bool low_discrepancy = true;  // Owen-scrambled Sobol; false: independent PCG32
-    int threads = 0;  // 0: all hardware threads
+    int threads = 0;              // 0: all hardware threads
     TracerConfig tracer;
     // Adaptive rendering (both per pixel, row-major, or null): pixel p takes `counts[p]`
     // samples (0: left as it is) from index first_sample + starts[p] on.
@@ -58,8 +58,7 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray);
 
 // Renders into `image` (height * width * 3 floats, row-major, linear RGB): each pixel's
 // mean over the samples it took in this call.
-RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
-                   RenderProgress &progress);
+RenderStats render(const Scene &scene, const RenderSettings &settings, float *image, RenderProgress &progress);
 
 constexpr int kTileSize = 16;
 

@@ -59,7 +59,7 @@ struct Scene {
     int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
-    int add_light(const Light &l);  // counts point_and_directional
+    int add_light(const Light &l);                           // counts point_and_directional
     // Replaces light i by another of its kind (an animation's sun); build() then redoes
     // what depends on the lights, not the geometry.
     void set_light(int i, const Light &l);
@@ -77,7 +77,8 @@ struct Scene {
     // (Geometry::enclosure), where there is nothing to hit.
     bool intersect(const Ray &ray, Intersection &its, int medium) const {
         if (medium >= 0 && medium_container[size_t(medium)] >= 0) {
-            if (const auto hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its)) return *hit;
+            if (const auto hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its))
+                return *hit;
         }
         if (medium != enclosed_medium && geometry.outside_enclosure(ray)) return false;
         return geometry.intersect(ray, its);

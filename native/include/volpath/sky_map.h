@@ -50,7 +50,7 @@ struct SkyMap {
     // azimuth, across), so it depends on its sun elevation, not on the sun's direction:
     // maps for suns that differ in direction alone share their levels.
     std::shared_ptr<const std::vector<Level>> levels;
-    bool models_light = false;                  // good enough to be a control variate
+    bool models_light = false;  // good enough to be a control variate
 
     Point at(const Vec3 &p) const;
     // Solid-angle density of sample() returning d.
@@ -70,7 +70,8 @@ struct SkyMap {
 // of `previous`, a map over the same air, are taken over when they are the ones this map
 // needs (an animated sun that stays within a window of elevations): the levels are built
 // for a sun along +z, so they are the same bits whichever map built them first.
-std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const SunGuide &sun, const Spectrum &ground_albedo,
-                                            const Vec3 &viewpoint, const SkyMap *previous = nullptr);
+std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const SunGuide &sun,
+                                            const Spectrum &ground_albedo, const Vec3 &viewpoint,
+                                            const SkyMap *previous = nullptr);
 
 }  // namespace volpath

@@ -122,7 +122,10 @@ private:
         size_t lo = 0, hi = func.size();
         while (hi - lo > 1) {
             const size_t mid = (lo + hi) / 2;
-            if (cdf[mid] <= u) lo = mid; else hi = mid;
+            if (cdf[mid] <= u)
+                lo = mid;
+            else
+                hi = mid;
         }
         while (lo + 1 < func.size() && cdf[lo + 1] - cdf[lo] <= 0) ++lo;
         return lo;

@@ -24,8 +24,8 @@ namespace {
 // Fits of the hemispherical average of Fresnel reflectance (d'Eon & Irving 2011).
 Real fresnel_diffuse_reflectance(Real eta) {
     if (eta < 1) {
-        return 0.919317 - 3.4793 * eta + 6.75335 * eta * eta - 7.80989 * eta * eta * eta +
-               4.98554 * sqr(eta * eta) - 1.36881 * sqr(eta * eta) * eta;
+        return 0.919317 - 3.4793 * eta + 6.75335 * eta * eta - 7.80989 * eta * eta * eta + 4.98554 * sqr(eta * eta) -
+               1.36881 * sqr(eta * eta) * eta;
     }
     return -1.4399 / (eta * eta) + 0.7099 / eta + 0.6681 + 0.0636 * eta;
 }
@@ -65,8 +65,7 @@ struct Eval {
         if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
         const Vec3 h = normalize(wi + wo);
         const Real f = fresnel_dielectric(dot(wi, h), b.eta);
-        const Real spec = f * ggx_d(b.alpha, h) * ggx_g1(b.alpha, wi, h) * ggx_g1(b.alpha, wo, h) /
-                          (4.0 * wi.z);
+        const Real spec = f * ggx_d(b.alpha, h) * ggx_g1(b.alpha, wi, h) * ggx_g1(b.alpha, wo, h) / (4.0 * wi.z);
         // Light enters and leaves the coating once each; the base reflects diffusely and
         // inter-reflects under the coating (the 1 / (1 - Fdr_internal) series).
         const Real t_i = 1.0 - fresnel_dielectric(wi.z, b.eta);
@@ -81,9 +80,7 @@ struct Pdf {
     Vec3 wi, wo;
     Real operator()(const NullBSDF &) const { return 0; }
     Real operator()(const DielectricBSDF &) const { return 0; }
-    Real operator()(const DiffuseBSDF &) const {
-        return wi.z > 0 ? cosine_hemisphere_pdf(wo.z) : 0.0;
-    }
+    Real operator()(const DiffuseBSDF &) const { return wi.z > 0 ? cosine_hemisphere_pdf(wo.z) : 0.0; }
     Real operator()(const RoughPlasticBSDF &b) const {
         if (wi.z <= 0 || wo.z <= 0) return 0;
         const Real p_spec = plastic_specular_probability(b, wi.z);

@@ -99,9 +99,9 @@ struct SkyPoint {
 // to ratio tracking.
 bool deterministic_through_air(const Light &light, const Medium &m) {
     const auto *air = std::get_if<AtmosphereMedium>(&m);
-    return air && (guided_air(m) || (air->sun_transmittance != AtmosphereMedium::SunTransmittance::Tracking &&
-                                     (std::holds_alternative<SunLight>(light) ||
-                                      std::holds_alternative<DirectionalLight>(light))));
+    return air && (guided_air(m) ||
+                   (air->sun_transmittance != AtmosphereMedium::SunTransmittance::Tracking &&
+                    (std::holds_alternative<SunLight>(light) || std::holds_alternative<DirectionalLight>(light))));
 }
 
 // Whether a ray that escapes the scene can only find `light` there: the scene is lit at
@@ -145,9 +145,9 @@ Spectrum free_flight_density(const SegmentVertex &v) {
 // `vertex`: the point is a SegmentVertex: drawn for its light, or free flight's collision,
 // which chooses among Scene::collision_nee_lights (see SegmentVertex).
 template <typename Eval, typename Pdf>
-Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
-                       int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis,
-                       Sampler &sampler, Eval &&eval, Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
+Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface, int medium,
+                       const Spectrum &beta, const Spectrum &r_p, int channel, bool mis, Sampler &sampler, Eval &&eval,
+                       Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
     const bool toward_light = vertex && vertex->light >= 0, collision = vertex && !toward_light;
     int light = toward_light ? vertex->light : -1;
     Real select = toward_light ? segment_light_select_pdf(scene) : 0;
@@ -161,8 +161,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         select = 1.0 / Real(n);
     }
     LightSample ls;
-    if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) ||
-        !(ls.pdf > 0) || is_black(ls.L))
+    if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) || !(ls.pdf > 0) || is_black(ls.L))
         return Spectrum(0.0);
     const Spectrum f = eval(ls.d);
     if (is_black(f)) return Spectrum(0.0);
@@ -223,11 +222,14 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                         if (!(tau_min == tau_seen)) T_min = exp(-tau_min), tau_seen = tau_min;
                         const Spectrum Tr = T_ray * T_min / average(r_l + r_u);
                         if (max_component(Tr) < 0.05) {
-                            if (sampler.independent_1d() < 0.75) T_ray = Spectrum(0.0);
-                            else T_ray /= 0.25;
+                            if (sampler.independent_1d() < 0.75)
+                                T_ray = Spectrum(0.0);
+                            else
+                                T_ray /= 0.25;
                         }
                         return !is_black(T_ray);
-                    }, /*forced_probability=*/0, /*stratified=*/false, ls.delta ? &tau_min : nullptr);
+                    },
+                    /*forced_probability=*/0, /*stratified=*/false, ls.delta ? &tau_min : nullptr);
                 const Real pdf = T_maj[channel];
                 if (!(pdf > 0)) return Spectrum(0.0);
                 T_ray *= T_maj / pdf * exp(-tau_min);
@@ -400,11 +402,12 @@ void Path::add_emission(const Spectrum &Le, int light, Real pdf_light_dir) {
             Real r_light_distance = 0;
             if (scattered_at) {
                 const SegmentVertex &v = *scattered_at;
-                r_light_distance = average(r_ld * light_distance_density(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
-                                           (segment_light_select_pdf(scene) * pdf_light_dir));
+                r_light_distance =
+                    average(r_ld * light_distance_density(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
+                            (segment_light_select_pdf(scene) * pdf_light_dir));
             }
-            const Real select = scattered_at ? scene.collision_light_select_pdf(light, true)
-                                             : scene.light_select_pdf(light, true);
+            const Real select =
+                scattered_at ? scene.collision_light_select_pdf(light, true) : scene.light_select_pdf(light, true);
             const Spectrum r_light = r_l * (select * pdf_light_dir);
             L += beta * Le * mis_over_a(average(r_u), average(r_light), r_light_distance);
         }
@@ -462,10 +465,10 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
         ps = phase_sample(phase, ray.d, sampler.next_2d(), u_lobe, channel);
     } else {
         Real pdf_map;
-        ps.d_out = u_lobe < sky->share
-                       ? map->sample(sky->at, sampler.next_2d(), u_lobe / sky->share, pdf_map)
-                       : phase_sample(sky->lobes, ray.d, sampler.next_2d(),
-                                      (u_lobe - sky->share) / (1 - sky->share), channel).d_out;
+        ps.d_out = u_lobe < sky->share ? map->sample(sky->at, sampler.next_2d(), u_lobe / sky->share, pdf_map)
+                                       : phase_sample(sky->lobes, ray.d, sampler.next_2d(),
+                                                      (u_lobe - sky->share) / (1 - sky->share), channel)
+                                             .d_out;
         ps.value = phase_eval(phase, dot(ray.d, ps.d_out));
         ps.pdf = sky->pdf(ray.d, ps.d_out);
     }
@@ -491,8 +494,8 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
             mie_integral += map->radiance(sky->at, w) * (cornette_shanks_eval(air.g, mu) / hg_eval(air.g, mu));
         }
         const Real mu = dot(ray.d, ps.d_out);
-        const Spectrum integral = rayleigh * map->rayleigh_integral(sky->at, ray.d) +
-                                  mie * mie_integral / Real(kMieLobeSamples);
+        const Spectrum integral =
+            rayleigh * map->rayleigh_integral(sky->at, ray.d) + mie * mie_integral / Real(kMieLobeSamples);
         const Spectrum value = (rayleigh * rayleigh_eval(mu) + mie * cornette_shanks_eval(air.g, mu)) * arriving;
         L += beta * (integral - value / pdf_c) / average(r_u);
     }
@@ -552,8 +555,10 @@ Step Path::fly_through_air(bool hit, const Intersection &its, Real t_end) {
         const Real eps = 1e-9 * (1 + std::abs(ray.t_min) + std::abs(t_end));
         const auto [a, b] = scene.local_sun_shadow(ray, ray.t_min, t_end);
         if (a <= b && b > ray.t_min + eps) {
-            if (a > ray.t_min + eps) t_piece = a;  // clear up to the shadow
-            else clear = false, t_piece = b;       // shadowed up to its end
+            if (a > ray.t_min + eps)
+                t_piece = a;  // clear up to the shadow
+            else
+                clear = false, t_piece = b;  // shadowed up to its end
         }
     }
     const bool cut = t_piece < t_end;
@@ -588,20 +593,19 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
     // off what the path then gathers (NEE, and past it the light the sky map models).
     const bool light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
     const SkyMap *map = sky_map_of(m);
-    const bool map_model = light_model && map && map->models_light &&
-                           (feat.max_depth < 0 || depth + 2 < feat.max_depth);
+    const bool map_model =
+        light_model && map && map->models_light && (feat.max_depth < 0 || depth + 2 < feat.max_depth);
     // The camera's pass-through branch only looks for what lies beyond: if that is empty
     // space and no sun's disc, nothing (sky pixels, most of a sky's image).
     if (branch == Branch::PassThrough && leaves_for_empty_space(hit, its)) {
         bool sees_a_sun = false;
-        for (int index : scene.infinite_lights)
-            sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
+        for (int index : scene.infinite_lights) sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
         if (!sees_a_sun) return Flight::Ended;
     }
     // The camera's pass-through branch needs only T: no sun lookups for the guide.
-    const AirSegment seg = air_segment(*guided_air(m), ray, t_end,
-                                       branch == Branch::PassThrough ? nullptr : scene.sun_guide(),
-                                       map_model ? map : nullptr);
+    const AirSegment seg =
+        air_segment(*guided_air(m), ray, t_end, branch == Branch::PassThrough ? nullptr : scene.sun_guide(),
+                    map_model ? map : nullptr);
     const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
     Real p_collide = branch == Branch::Collide ? 1 : 0;
     if (branch == Branch::All) {
@@ -671,8 +675,7 @@ Step Path::fly_through_medium(Real t_end) {
         const Real d = t_end - ray.t_min;
         if (!is_black(h->Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
             Spectrum span;
-            for (int c = 0; c < 3; ++c)
-                span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
+            for (int c = 0; c < 3; ++c) span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
             L += beta * h->sigma_a * h->Le * span / average(r_u);
         }
         beta *= exp(-sigma_t * d);
@@ -768,7 +771,8 @@ Step Path::at_surface(const Intersection &its) {
     const ShapeInfo &shape = scene.shapes[its.shape];
     if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
         const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-        add_emission(area.radiance, shape.light, light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
+        add_emission(area.radiance, shape.light,
+                     light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
     const BSDF &bsdf = scene.bsdfs[shape.bsdf];
     if (is_null(bsdf)) {
@@ -830,7 +834,8 @@ Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, con
     Sampler second = sampler.split();
     FirstHit first;
     first.hit = scene.intersect(ray, first.its, medium);
-    const Spectrum through = radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough, Spectrum(0.0), &first);
+    const Spectrum through =
+        radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough, Spectrum(0.0), &first);
     return through + radiance_path(scene, ray, medium, second, config, Branch::Collide, through, &first);
 }
 

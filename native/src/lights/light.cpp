@@ -209,13 +209,11 @@ void prepare_light(Light &light, const Geometry &geometry) {
     }
 }
 
-bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref, Vec2 u,
-                  LightSample &out) {
+bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref, Vec2 u, LightSample &out) {
     return std::visit(Sample{geometry, ref, u, out}, light);
 }
 
-Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d,
-               const Intersection &its) {
+Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d, const Intersection &its) {
     return std::visit(Pdf{geometry, ref, d, its}, light);
 }
 

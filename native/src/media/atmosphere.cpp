@@ -87,8 +87,8 @@ Spectrum air_majorant(const AtmosphereMedium &m, const Ray &ray, Real a, Real b)
     m.densities(h_min, r, mie, o);
     // Ozone's tent peaks inside [h_min, h_max] or at the end nearer the peak.
     const Real h_oz = std::clamp(m.ozone_peak, std::max(h_min, 0.0), std::max(h_max, 0.0));
-    const Spectrum sigma_maj = m.rayleigh_sigma_s * r + (m.mie_sigma_s + m.mie_sigma_a) * mie +
-                               m.ozone_sigma_a * m.ozone_profile(h_oz);
+    const Spectrum sigma_maj =
+        m.rayleigh_sigma_s * r + (m.mie_sigma_s + m.mie_sigma_a) * mie + m.ozone_sigma_a * m.ozone_profile(h_oz);
     // A small safety factor covers rounding in the altitude of the lowest point.
     return sigma_maj * (1.0 + 1e-9);
 }
@@ -160,13 +160,14 @@ void set_weights(AirSegment &s, const Spectrum *free_flight) {
         return;
     }
     const Real share_lit = max_component(mass_lit) > 0 ? 0.5 : 0.0;
-    const Spectrum w_free = safe_div(Spectrum(1 - share_lit), mass_free), w_lit = safe_div(Spectrum(share_lit), mass_lit);
+    const Spectrum w_free = safe_div(Spectrum(1 - share_lit), mass_free),
+                   w_lit = safe_div(Spectrum(share_lit), mass_lit);
     for (int k = 0; k <= K; ++k) {
         AirSegment::Node &q = s.node[k];
         q.weight = std::max(average(w_free * free_flight[k] + w_lit * q.light), 1e-300);
         q.mass = k == 0 ? 0.0
-                        : s.node[k - 1].mass + exp_interpolated_integral(s.node[k - 1].weight, q.weight,
-                                                                         q.t - s.node[k - 1].t);
+                        : s.node[k - 1].mass +
+                              exp_interpolated_integral(s.node[k - 1].weight, q.weight, q.t - s.node[k - 1].t);
     }
 }
 }  // namespace
@@ -199,12 +200,14 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
         } else {
             const AirSegment::Node &prev = s.node[k - 1];
             const Real dt = q.t - prev.t, h0 = std::max(prev.h, 0.0), h1 = std::max(q.h, 0.0);
-            q.I_rayleigh = prev.I_rayleigh + exponential_integral(prev.rayleigh, q.rayleigh, h0, h1, m.rayleigh_height, dt);
+            q.I_rayleigh =
+                prev.I_rayleigh + exponential_integral(prev.rayleigh, q.rayleigh, h0, h1, m.rayleigh_height, dt);
             q.I_mie = prev.I_mie + exponential_integral(prev.mie, q.mie, h0, h1, m.mie_height, dt);
             q.I_ozone = prev.I_ozone + 0.5 * (prev.ozone + q.ozone) * dt;
         }
         const Spectrum s_r = m.rayleigh_sigma_s * q.rayleigh, s_m = m.mie_sigma_s * q.mie;
-        const Spectrum T = q.T = exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
+        const Spectrum T = q.T =
+            exp(-(m.rayleigh_sigma_s * q.I_rayleigh + mie_t * q.I_mie + m.ozone_sigma_a * q.I_ozone));
         free_flight[k] = node_sigma_t(m, q) * T;
         Spectrum tau_sun;
         q.light = sun && m.tabulated_tau_to_top(p, sun->to_sun, tau_sun)

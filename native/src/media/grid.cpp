@@ -103,7 +103,8 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
             for (int cx = 0; cx < res; ++cx) {
                 int lo[3], hi[3];
                 const int cell[3] = {cx, cy, cz};
-                for (int a = 0; a < 3; ++a) voxel_range(Real(cell[a]) / res, Real(cell[a] + 1) / res, g.res[a], lo[a], hi[a]);
+                for (int a = 0; a < 3; ++a)
+                    voxel_range(Real(cell[a]) / res, Real(cell[a] + 1) / res, g.res[a], lo[a], hi[a]);
                 MajorantGrid::Cell &c = mg.cells[(size_t(cz) * res + cy) * res + cx];
                 c.max = Spectrum(0.0), c.min = Spectrum(kInfinity);
                 for (int bz = lo[2] >> L; bz <= hi[2] >> L; ++bz)
@@ -115,10 +116,12 @@ MajorantGrid build_majorants(const VoxelGrid &g, int res) {
                             }
                             for (int z = std::max(lo[2], bz << L); z <= std::min(hi[2], ((bz + 1) << L) - 1); ++z)
                                 for (int y = std::max(lo[1], by << L); y <= std::min(hi[1], ((by + 1) << L) - 1); ++y)
-                                    for (int x = std::max(lo[0], bx << L); x <= std::min(hi[0], ((bx + 1) << L) - 1); ++x) {
-                                        const Spectrum v = g.channels == 1 ? Spectrum(g.voxel(x, y, z, 0))
-                                                                           : Spectrum(g.voxel(x, y, z, 0), g.voxel(x, y, z, 1),
-                                                                                      g.voxel(x, y, z, 2));
+                                    for (int x = std::max(lo[0], bx << L); x <= std::min(hi[0], ((bx + 1) << L) - 1);
+                                         ++x) {
+                                        const Spectrum v = g.channels == 1
+                                                               ? Spectrum(g.voxel(x, y, z, 0))
+                                                               : Spectrum(g.voxel(x, y, z, 0), g.voxel(x, y, z, 1),
+                                                                          g.voxel(x, y, z, 2));
                                         c.max = max(c.max, v), c.min = min(c.min, v);
                                     }
                         }

@@ -63,9 +63,7 @@ bool is_emissive(const Medium &m) {
     return false;
 }
 
-MediumProperties medium_properties(const Medium &m, const Vec3 &p) {
-    return std::visit(Properties{p}, m);
-}
+MediumProperties medium_properties(const Medium &m, const Vec3 &p) { return std::visit(Properties{p}, m); }
 
 PhaseFunction medium_phase(const Medium &m, const Vec3 &p) { return std::visit(Phase{p}, m); }
 
@@ -73,8 +71,9 @@ void prepare_medium(Medium &m) {
     if (auto *air = std::get_if<AtmosphereMedium>(&m)) {
         if (air->free_flight == AtmosphereMedium::FreeFlight::Guided &&
             air->sun_transmittance == AtmosphereMedium::SunTransmittance::Tracking)
-            throw std::invalid_argument("free_flight='guided' takes transmittances by quadrature: it needs "
-                                        "sun_transmittance 'table' or 'quadrature', not 'tracking'");
+            throw std::invalid_argument(
+                "free_flight='guided' takes transmittances by quadrature: it needs "
+                "sun_transmittance 'table' or 'quadrature', not 'tracking'");
         // The guided free flight reads the sun's transmittance from the table too.
         if (air->sun_transmittance == AtmosphereMedium::SunTransmittance::Table ||
             air->free_flight == AtmosphereMedium::FreeFlight::Guided)
@@ -177,15 +176,16 @@ bool MajorantIterator::next(MajorantSegment &seg) {
     }
     const MajorantGrid &mg = grid_->majorants;
     while (t_ < t_end_) {
-        const bool inside = cell_[0] >= 0 && cell_[0] < mg.res && cell_[1] >= 0 && cell_[1] < mg.res &&
-                            cell_[2] >= 0 && cell_[2] < mg.res;
+        const bool inside = cell_[0] >= 0 && cell_[0] < mg.res && cell_[1] >= 0 && cell_[1] < mg.res && cell_[2] >= 0 &&
+                            cell_[2] < mg.res;
         if (!inside) {
             // Rounding left a sliver at the far end: cover it with the global bound.
             seg = {t_, t_end_, mg.global_max * grid_->scale, Spectrum(0.0)};
             t_ = t_end_;
             return true;
         }
-        const int axis = t_next_[0] < t_next_[1] ? (t_next_[0] < t_next_[2] ? 0 : 2) : (t_next_[1] < t_next_[2] ? 1 : 2);
+        const int axis =
+            t_next_[0] < t_next_[1] ? (t_next_[0] < t_next_[2] ? 0 : 2) : (t_next_[1] < t_next_[2] ? 1 : 2);
         const Real t_end = std::min(t_next_[axis], t_end_);
         const MajorantGrid::Cell &cell = mg.at(cell_[0], cell_[1], cell_[2]);
         const Real start = t_;

@@ -65,8 +65,8 @@ Spectrum arriving_radiance(const AtmosphereMedium &air, const SunGuide &sun, con
 // Integrals over the cell [mu_lo, mu_hi] x [phi_lo, phi_hi] of w w^T, w = (sin cos phi,
 // sin sin phi, mu): xx, yy, zz, xy, xz, yz.
 void cell_moments(Real a, Real b, Real c, Real d, Real out[6]) {
-    const Real sin2 = (b - a) - (b * b * b - a * a * a) / 3;  // integral of 1 - mu^2
-    const Real cos2 = (b * b * b - a * a * a) / 3;            // of mu^2
+    const Real sin2 = (b - a) - (b * b * b - a * a * a) / 3;                       // integral of 1 - mu^2
+    const Real cos2 = (b * b * b - a * a * a) / 3;                                 // of mu^2
     const Real mixed = (std::pow(1 - a * a, 1.5) - std::pow(1 - b * b, 1.5)) / 3;  // of mu sqrt(1 - mu^2)
     const Real cc = (d - c) / 2 + (std::sin(2 * d) - std::sin(2 * c)) / 4;
     const Real ss = (d - c) / 2 - (std::sin(2 * d) - std::sin(2 * c)) / 4;
@@ -111,7 +111,8 @@ void parallel_for(size_t n, Fn &&fn) {
 }  // namespace
 
 std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const SunGuide &sun,
-                                            const Spectrum &ground_albedo, const Vec3 &viewpoint, const SkyMap *previous) {
+                                            const Spectrum &ground_albedo, const Vec3 &viewpoint,
+                                            const SkyMap *previous) {
     auto map = std::make_shared<SkyMap>();
     SkyMap &m = *map;
     m.center = air.center, m.to_sun = sun.to_sun;
@@ -123,8 +124,10 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
     const LocalFrame view(air.center, air.planet_radius, sun.to_sun, viewpoint);
     Real half = 8 * kPi / 180, mid = 0;
     const Real step = 2 * half / (NE - 1);
-    if (view.altitude >= m.height) half = kPi / 2;
-    else mid = std::clamp(step * std::round(view.sun_elevation / step), -kPi / 2 + half, kPi / 2 - half);
+    if (view.altitude >= m.height)
+        half = kPi / 2;
+    else
+        mid = std::clamp(step * std::round(view.sun_elevation / step), -kPi / 2 + half, kPi / 2 - half);
     m.elevation_lo = mid - half, m.elevation_step = 2 * half / (NE - 1);
     // Where the map stands for the light well enough to be a control variate: not in
     // twilight, nor seen from space through its coarse elevations.
@@ -186,9 +189,11 @@ std::shared_ptr<const SkyMap> build_sky_map(const AtmosphereMedium &air, const S
                 const Vec3 d = cell_direction(frame, l, iz, ip);
                 Real g0, g1;
                 const bool ground = sphere_roots(air.center, air.planet_radius, p, d, g0, g1) && g0 > 0;
-                const Spectrum L = air_segment(air, Ray{p, d, 0, kInfinity}, ground ? g0 : kInfinity, nullptr, &up).light_integral();
+                const Spectrum L =
+                    air_segment(air, Ray{p, d, 0, kInfinity}, ground ? g0 : kInfinity, nullptr, &up).light_integral();
                 twice[l][size_t(iz) * NP + ip] = L;
-                total += L * ((zenith_cosine(Real(iz + 1) / NZ, mu_h) - zenith_cosine(Real(iz) / NZ, mu_h)) * (2 * kPi / NP));
+                total += L * ((zenith_cosine(Real(iz + 1) / NZ, mu_h) - zenith_cosine(Real(iz) / NZ, mu_h)) *
+                              (2 * kPi / NP));
             }
         const Spectrum ratio = min(safe_div(total, (*levels)[l].total), Spectrum(0.8));
         for (Spectrum &L : twice[l]) L = L / (Spectrum(1.0) - ratio);
@@ -210,9 +215,12 @@ SkyMap::Point SkyMap::at(const Vec3 &p) const {
     const int k = elevation_step > 0
                       ? std::clamp(int(std::lround((frame.sun_elevation - elevation_lo) / elevation_step)), 0, NE - 1)
                       : 0;
-    return {frame.up, frame.toward_sun, frame.across,
+    return {frame.up,
+            frame.toward_sun,
+            frame.across,
             {&(*levels)[size_t(k) * NA + j0], &(*levels)[size_t(k) * NA + j1]},
-            {horizon[j0], horizon[j1]}, {1 - w1, w1}};
+            {horizon[j0], horizon[j1]},
+            {1 - w1, w1}};
 }
 
 namespace {
@@ -256,13 +264,15 @@ Vec3 SkyMap::sample(const Point &at, Vec2 u, Real u_level, Real &pdf_out) const 
     const Vec2 xy = at.level[i]->directions.sample(u, &pdf_square);
     // Uniform in the zenith cosine (so in solid angle) inside the cell.
     const int iz = std::clamp(int(xy.y * NZ), 0, NZ - 1);
-    const Real mu_lo = zenith_cosine(Real(iz) / NZ, at.horizon[i]), mu_hi = zenith_cosine(Real(iz + 1) / NZ, at.horizon[i]);
+    const Real mu_lo = zenith_cosine(Real(iz) / NZ, at.horizon[i]),
+               mu_hi = zenith_cosine(Real(iz + 1) / NZ, at.horizon[i]);
     const Real mu = mu_lo + (xy.y * NZ - iz) * (mu_hi - mu_lo);
     const Real phi = 2 * kPi * xy.x - kPi, s = safe_sqrt(1 - mu * mu);
     const Vec3 d = at.up * mu + (at.toward_sun * std::cos(phi) + at.across * std::sin(phi)) * s;
     const Real own = mu_hi > mu_lo ? pdf_square / ((mu_hi - mu_lo) * NZ * 2 * kPi) : 0.0;
     pdf_out = at.weight[i] * own;
-    if (at.weight[1 - i] > 0) pdf_out += at.weight[1 - i] * level_pdf(*at.level[1 - i], cell_of(xy.x, mu, at.horizon[1 - i]));
+    if (at.weight[1 - i] > 0)
+        pdf_out += at.weight[1 - i] * level_pdf(*at.level[1 - i], cell_of(xy.x, mu, at.horizon[1 - i]));
     return d;
 }
 
@@ -270,7 +280,8 @@ Spectrum SkyMap::radiance(const Point &at, const Vec3 &d) const {
     const Direction dir(at, d);
     Spectrum L(0.0);
     for (int i = 0; i < 2; ++i)
-        if (at.weight[i] > 0) L += at.level[i]->radiance[cell_index(dir.x, warped_zenith(dir.mu, at.horizon[i]))] * at.weight[i];
+        if (at.weight[i] > 0)
+            L += at.level[i]->radiance[cell_index(dir.x, warped_zenith(dir.mu, at.horizon[i]))] * at.weight[i];
     return L;
 }
 
@@ -281,8 +292,8 @@ Spectrum SkyMap::rayleigh_integral(const Point &at, const Vec3 &d_in) const {
     for (int i = 0; i < 2; ++i) {
         if (!(at.weight[i] > 0)) continue;
         const Spectrum *M = at.level[i]->moment;
-        const Spectrum quadratic = M[0] * (x * x) + M[1] * (y * y) + M[2] * (z * z) +
-                                   (M[3] * (x * y) + M[4] * (x * z) + M[5] * (y * z)) * 2.0;
+        const Spectrum quadratic =
+            M[0] * (x * x) + M[1] * (y * y) + M[2] * (z * z) + (M[3] * (x * y) + M[4] * (x * z) + M[5] * (y * z)) * 2.0;
         sum += (at.level[i]->total + quadratic) * at.weight[i];
     }
     return sum * (3.0 / (16.0 * kPi));

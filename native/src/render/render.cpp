@@ -50,8 +50,7 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
     return {};
 }
 
-RenderStats render(const Scene &scene, const RenderSettings &settings, float *image,
-                   RenderProgress &progress) {
+RenderStats render(const Scene &scene, const RenderSettings &settings, float *image, RenderProgress &progress) {
     const auto start = std::chrono::steady_clock::now();
     const Camera &cam = scene.camera;
     const int tiles_x = (cam.width + kTileSize - 1) / kTileSize;

@@ -13,8 +13,7 @@ Real TriangleMesh::area(size_t i) const {
 // 6360 km planet or grazes it. The smaller-magnitude root comes from c'/q with
 // q = -b - sign(b) sqrt(disc). (c' itself keeps ~1e-9 relative precision 0.1 m above the
 // ground: |o'|^2 ~ 4e13 m^2 is exact to ~4e-3 m^2, and c' ~ 2 r h.)
-bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0,
-                  Real &t1) {
+bool sphere_roots(const Vec3 &center, Real radius, const Vec3 &o, const Vec3 &d, Real &t0, Real &t1) {
     const Vec3 oc = o - center;
     const Real b = dot(oc, d);
     const Real r2 = radius * radius;
@@ -37,7 +36,9 @@ namespace {
 Vec3 box_corner(const Box &box, int k) {
     return box.to_world.point({k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0});
 }
-Vec3 bounds_corner(const Bounds &b, int k) { return {k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z}; }
+Vec3 bounds_corner(const Bounds &b, int k) {
+    return {k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z};
+}
 
 // The world bounds of a box: its eight corners'.
 Bounds corner_bounds(const Box &box) {
@@ -162,7 +163,8 @@ bool Geometry::holds(uint32_t solid, const Primitive &p) const {
     }
     const Bounds b = primitive_bounds(p);
     for (int k = 0; k < 8; ++k)
-        if (!inside(s.kind == ShapeGeometry::Kind::Box ? box_corner(boxes[s.index], k) : bounds_corner(b, k))) return false;
+        if (!inside(s.kind == ShapeGeometry::Kind::Box ? box_corner(boxes[s.index], k) : bounds_corner(b, k)))
+            return false;
     return true;
 }
 
@@ -232,8 +234,8 @@ Bounds Geometry::bounds() const {
 }
 
 // Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
-uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids,
-                                   uint32_t begin, uint32_t end) {
+uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
+                                   uint32_t end) {
     const uint32_t node_index = uint32_t(nodes_.size());
     nodes_.emplace_back();
     Bounds node_bounds, centroid_bounds;
@@ -271,9 +273,7 @@ uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3
         uint32_t n = 0;
     } bins[kBins];
     const Real lo = centroid_bounds.lo[axis], scale = kBins / extent[axis];
-    auto bin_of = [&](uint32_t i) {
-        return std::min(kBins - 1, int((centroids[i][axis] - lo) * scale));
-    };
+    auto bin_of = [&](uint32_t i) { return std::min(kBins - 1, int((centroids[i][axis] - lo) * scale)); };
     for (uint32_t i = begin; i < end; ++i) {
         Bin &bin = bins[bin_of(i)];
         bin.b.extend(bounds[i]);
@@ -350,7 +350,7 @@ struct Geometry::PreparedRay {
         const Vec3 a = abs(d);
         kz = a.x > a.y ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
         kx = (kz + 1) % 3, ky = (kx + 1) % 3;
-        if (d[kz] < 0) std::swap(kx, ky);  // keep the winding
+        if (d[kz] < 0) std::swap(kx, ky);                  // keep the winding
         sz = inv_d[kz], sx = d[kx] * sz, sy = d[ky] * sz;  // d[kz], the largest, is not 0
     }
 };
@@ -454,7 +454,8 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
                                      std::max((b[nz] - ray.o.z) * inv_d.z, ray.t_min));
         // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
         const Real t_far = std::min(std::min((b[fx] - ray.o.x) * inv_d.x, (b[fy] - ray.o.y) * inv_d.y),
-                                    std::min((b[fz] - ray.o.z) * inv_d.z, closest.t)) * (1 + 4e-16);
+                                    std::min((b[fz] - ray.o.z) * inv_d.z, closest.t)) *
+                           (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
                 for (uint32_t i = 0; i < node.count; ++i)

@@ -37,7 +37,8 @@ int Scene::add_light(const Light &l) {
 }
 
 void Scene::set_light(int i, const Light &l) {
-    if (lights.at(size_t(i)).index() != l.index()) throw std::invalid_argument("a light can only be replaced by one of its kind");
+    if (lights.at(size_t(i)).index() != l.index())
+        throw std::invalid_argument("a light can only be replaced by one of its kind");
     lights[size_t(i)] = l;
     built = false;
 }
@@ -125,8 +126,10 @@ void Scene::build() {
     for (const Light &l : lights) has_environment |= std::holds_alternative<EnvironmentLight>(l);
     int sun_light = -1;
     for (int i = 0; i < int(lights.size()) && !sun; ++i) {
-        if (const auto *s = std::get_if<SunLight>(&lights[i])) sun = SunGuide{s->to_sun, s->radiance / uniform_cone_pdf(s->cos_max)};
-        else if (const auto *d = std::get_if<DirectionalLight>(&lights[i])) sun = SunGuide{-d->direction, d->irradiance};
+        if (const auto *s = std::get_if<SunLight>(&lights[i]))
+            sun = SunGuide{s->to_sun, s->radiance / uniform_cone_pdf(s->cos_max)};
+        else if (const auto *d = std::get_if<DirectionalLight>(&lights[i]))
+            sun = SunGuide{-d->direction, d->irradiance};
         if (sun) sun_light = i;
     }
     // A sphere shadows no air if it is an atmosphere's ground (the tables know that shadow)
@@ -186,9 +189,12 @@ std::pair<Real, Real> Scene::local_sun_shadow(const Ray &ray, Real t0, Real t1) 
     Real lo_t = t0, hi_t = t1;
     // a + b t <= 0 narrows [lo_t, hi_t].
     auto at_most_zero = [&](Real a, Real b) {
-        if (b > 0) hi_t = std::min(hi_t, -a / b);
-        else if (b < 0) lo_t = std::max(lo_t, -a / b);
-        else if (a > 0) hi_t = -kInfinity;
+        if (b > 0)
+            hi_t = std::min(hi_t, -a / b);
+        else if (b < 0)
+            lo_t = std::max(lo_t, -a / b);
+        else if (a > 0)
+            hi_t = -kInfinity;
     };
     for (int i = 0; i < 3; ++i) {
         const Real o = ray.o[i], d = ray.d[i], lo = local_bounds.lo[i], hi = local_bounds.hi[i];
@@ -208,8 +214,8 @@ std::pair<Real, Real> Scene::local_sun_shadow(const Ray &ray, Real t0, Real t1) 
 
 std::string Scene::describe() const {
     std::ostringstream s;
-    s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, " << geometry.boxes.size() << " boxes, "
-      << media.size() << " media, " << lights.size() << " lights";
+    s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, " << geometry.boxes.size()
+      << " boxes, " << media.size() << " media, " << lights.size() << " lights";
     return s.str();
 }
 
