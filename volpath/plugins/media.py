@@ -52,61 +52,6 @@ ATMOSPHERE_PRESETS = {
 }
 
 
-class Scene:
-    """A loaded scene: the native scene plus the file's render settings.
-
-    Attributes: ``spp``, ``max_depth``, ``rr_depth``, ``max_null_collisions``, ``light_distances``,
-    ``tracer`` (the integrator's tracer), ``width``, ``height``, ``summary`` (what the
-    scene contains, for ``volpath info``), ``passes`` (in spectral mode, the scene at each
-    pass's wavelengths; see volpath/spectral.py) and, after a render, ``last_render``
-    (seconds, non-finite sample count, ...).
-    """
-
-    def __init__(self, native, settings, summary, source):
-        self.native = native
-        self.spp = settings["spp"]
-        self.max_depth = settings["max_depth"]
-        self.rr_depth = settings["rr_depth"]
-        self.max_null_collisions = settings["max_null_collisions"]
-        self.light_distances = settings["light_distances"]
-        self.tracer = settings["tracer"]
-        self.summary = summary
-        self.source = source
-        self.last_render = None
-        self.passes = []  # spectral mode: one native scene per wavelength pass
-        self._builder = None  # what update() rebuilds with
-
-    @property
-    def width(self):
-        return self.native.width
-
-    def update(self, d):
-        """Move the scene to ``d``: the dictionary it was loaded from with its sensor or its
-        sun and directional emitters replaced (an animation's next frame). Only those are
-        built again; meshes, media, the BVH, and the sky map's levels while the sun stays
-        within their elevations, are kept, and the image is the same bits as
-        ``load_dict(d)``'s. Entries not replaced must be the same objects (as
-        ``volpath.frames.frame_dictionary`` leaves them). Returns False, changing nothing,
-        where ``d`` differs in anything else or the scene has spectral passes."""
-        if self.passes or self._builder is None:
-            return False
-        spp = self._builder.update(d)
-        if spp is None:
-            return False
-        self.spp = spp
-        return True
-
-    @property
-    def height(self):
-        return self.native.height
-
-    def __repr__(self):
-        return (
-            f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
-            f"tracer={self.tracer}, max_depth={self.max_depth}>"
-        )
-
-
 def build(b, d):
     d = b.resolve(d)
     if id(d) in b.media:
