@@ -299,17 +299,33 @@ def test_a_worker_builds_the_scene_once_and_each_frame_is_the_bits_of_a_fresh_lo
 
 
 def test_workers_do_not_run_the_callers_script_again(tmp_path):
-    """A script that runs the pipeline at its top level, with no __main__ guard: the pool's
-    spawn workers render frames without running the script again."""
+    """A script that imports bpy and runs the pipeline at its top level, with no __main__
+    guard, its workers' Python without bpy (as Blender's bundled Python spawns them): the
+    pool's spawn workers render frames without running the script again (issue #35)."""
     from addon.export.animation import export_animation
 
     tiny_animation(frames=2)
     export_animation(bpy.context.scene, [1, 2], str(tmp_path / "anim"))
-    script, runs = tmp_path / "render.py", tmp_path / "runs.txt"
+    script, runs, no_bpy = tmp_path / "render.py", tmp_path / "runs.txt", tmp_path / "no_bpy"
+    no_bpy.mkdir()
+    (no_bpy / "sitecustomize.py").write_text(
+        textwrap.dedent("""
+        import sys
+
+        class NoBpy:
+            def find_spec(self, name, path=None, target=None):
+                if name.partition(".")[0] == "bpy":
+                    raise ImportError("no bpy in a frame worker")
+
+        sys.meta_path.insert(0, NoBpy())
+    """)
+    )
     script.write_text(
         textwrap.dedent(f"""
-        import sys
+        import os, sys
+        import bpy
         sys.path.insert(0, {ROOT!r})
+        os.environ["PYTHONPATH"] = {str(no_bpy)!r}  # the workers' Python has no bpy
         with open({str(runs)!r}, "a") as f:
             f.write("run\\n")
         from pipeline.run import Options, Run
