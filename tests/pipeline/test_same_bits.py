@@ -20,6 +20,9 @@ HASHES = os.path.join(ROOT, "tests", "data", "image_hashes.json")
 BENCH_SCENES = ("absorbing_sphere", "single_scattering", "dense_multiple", "thin_fog", "hetero_cube", "cloud")
 SUNRISE_FRAME = 34
 
+# One worker for the module: the first test may write the bench scenes' grids.
+pytestmark = pytest.mark.xdist_group("bench-grids")
+
 
 def digest(image):
     return hashlib.sha256(np.ascontiguousarray(image, dtype=np.float32).tobytes()).hexdigest()
@@ -28,6 +31,9 @@ def digest(image):
 def bench_scene(name):
     import volpath
 
+    if not all(os.path.exists(os.path.join(ROOT, "bench", "scenes", g)) for g in ("hetero_cube.vol", "cloud.vdb")):
+        # The bench scenes' grids are made by a script (seeded), not kept in git.
+        subprocess.run([sys.executable, os.path.join(ROOT, "bench", "make_grids.py")], check=True, capture_output=True)
     scene = volpath.load_file(os.path.join(ROOT, "bench", "scenes", f"{name}.xml"), res=24)
     return volpath.render(scene, spp=2, seed=1, threads=2)
 
