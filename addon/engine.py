@@ -1,5 +1,6 @@
 """The Volpath render engine: F12 and animation renders through the exporter and
-volpath.render, tiles shown as they finish, Esc honoured within a fraction of a second."""
+volpath.render, tiles shown as they finish, Esc honoured within a fraction of a second;
+besides Combined, the view layer's Depth and Denoising Albedo / Normal passes."""
 
 import time
 
@@ -15,6 +16,10 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_use_preview = False
     # The viewport has no Volpath preview: Material Preview and Rendered shading use EEVEE.
     bl_use_eevee_viewport = True
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        for name, channels, ids, kind in _passes(renderlayer):
+            self.register_pass(scene, renderlayer, name, channels, ids, kind)
 
     def render(self, depsgraph):
         import volpath
@@ -38,7 +43,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             self.report({"INFO"}, f"Volpath: tracer '{tracer}' ({'; '.join(auto['reasons'])})")
         width, height = camera.resolution(scene.render)
         image = np.zeros((height, width, 3), np.float32)
-        result = self.begin_result(0, 0, width, height)
+        result = self.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         start = last_shown = time.monotonic()
         target = settings.adaptive_threshold if settings.use_adaptive_sampling else None
         samples = f"{settings.spp} spp" if target is None else f"up to {settings.spp} spp"
@@ -62,8 +67,9 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
                 last_shown = now
             return True
 
+        want_aovs = len(_passes(depsgraph.view_layer)) > 1
         try:
-            volpath.render(
+            rendered = volpath.render(
                 vp_scene,
                 spp=settings.spp,
                 seed=settings.seed,
@@ -74,6 +80,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
                 target_error=target,
                 status=adaptive.update,
                 denoise=settings.use_denoising,
+                aovs=want_aovs,
             )
         except volpath.RenderCancelled:
             _show(result, image)
@@ -83,7 +90,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             self.report({"ERROR"}, f"Volpath: render failed ({e})")
             self.end_result(result, cancel=True)
             return
-        _show(result, image)
+        image, aovs = rendered if want_aovs else (rendered, {})
+        _show(result, image, aovs)
         self.end_result(result)
         stats = vp_scene.last_render
         if stats["nonfinite_samples"]:
@@ -93,12 +101,36 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         self.update_stats("", f"Volpath | {samples} | {tracer} | {stats['seconds']:.1f} s")
 
 
-def _show(result, image):
-    """Our rows run top to bottom, Blender's bottom to top; alpha is 1."""
+def _passes(layer):
+    """(name, channels, channel ids, type) of the passes the view layer asks for."""
+    passes = [("Combined", 4, "RGBA", "COLOR")]
+    if layer is not None and layer.use_pass_z:
+        passes.append(("Depth", 1, "Z", "VALUE"))
+    if layer is not None and layer.volpath.denoising_data:
+        passes += [("Denoising Normal", 3, "XYZ", "VECTOR"), ("Denoising Albedo", 3, "RGB", "COLOR")]
+    return passes
+
+
+# Blender's passes from volpath.render's aovs; Depth where nothing is hit as Cycles writes it.
+_AOVS = {
+    "Depth": ("depth", lambda a: np.minimum(a, 1e10)),
+    "Denoising Normal": ("normal", None),
+    "Denoising Albedo": ("albedo", None),
+}
+
+
+def _show(result, image, aovs=None):
+    """Combined (alpha 1) and, at the end, the other passes; our rows run top to bottom,
+    Blender's bottom to top."""
     height, width, _ = image.shape
     rgba = np.ones((height, width, 4), np.float32)
     rgba[..., :3] = image[::-1]
-    result.layers[0].passes["Combined"].rect.foreach_set(rgba.ravel())
+    passes = result.layers[0].passes
+    passes["Combined"].rect.foreach_set(rgba.ravel())
+    for name, (key, convert) in _AOVS.items():
+        if aovs and name in passes:
+            values = aovs[key] if convert is None else convert(aovs[key])
+            passes[name].rect.foreach_set(np.ascontiguousarray(values[::-1], np.float32).ravel())
 
 
 def register():

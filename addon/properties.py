@@ -1,4 +1,5 @@
-"""Volpath's settings, stored in the .blend as ``scene.volpath``."""
+"""Volpath's settings, stored in the .blend as ``scene.volpath`` and, per view layer, its
+passes as ``view_layer.volpath``."""
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
@@ -162,11 +163,23 @@ class VolpathSettings(bpy.types.PropertyGroup):
     )
 
 
+class VolpathViewLayerSettings(bpy.types.PropertyGroup):
+    denoising_data: BoolProperty(
+        name="Denoising Data",
+        description="Denoising Albedo and Denoising Normal passes, for the compositor's Denoise node",
+        default=False,
+    )
+
+
 def register():
     bpy.utils.register_class(VolpathSettings)
     bpy.types.Scene.volpath = PointerProperty(type=VolpathSettings)
+    bpy.utils.register_class(VolpathViewLayerSettings)
+    bpy.types.ViewLayer.volpath = PointerProperty(type=VolpathViewLayerSettings)
 
 
 def unregister():
+    del bpy.types.ViewLayer.volpath
+    bpy.utils.unregister_class(VolpathViewLayerSettings)
     del bpy.types.Scene.volpath
     bpy.utils.unregister_class(VolpathSettings)

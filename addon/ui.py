@@ -87,7 +87,34 @@ class VOLPATH_PT_atmosphere(_VolpathPanel, bpy.types.Panel):
         super().draw(context)
 
 
-CLASSES = (VOLPATH_PT_sampling, VOLPATH_PT_light_paths, VOLPATH_PT_volumes, VOLPATH_PT_video, VOLPATH_PT_atmosphere)
+class VOLPATH_PT_passes(bpy.types.Panel):
+    """The view layer's passes besides Combined (the engine's update_render_passes)."""
+
+    bl_label = "Passes"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "view_layer"
+    COMPAT_ENGINES = {"VOLPATH"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layer = context.view_layer
+        self.layout.use_property_split = True
+        self.layout.prop(layer, "use_pass_z")
+        self.layout.prop(layer.volpath, "denoising_data")
+
+
+CLASSES = (
+    VOLPATH_PT_sampling,
+    VOLPATH_PT_light_paths,
+    VOLPATH_PT_volumes,
+    VOLPATH_PT_video,
+    VOLPATH_PT_passes,
+    VOLPATH_PT_atmosphere,
+)
 
 # Blender's panels for what the exporter reads: camera, lights, materials, world, volumes.
 _BLENDER_PANELS = (

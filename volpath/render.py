@@ -9,6 +9,7 @@ from . import _core
 from .adaptive import render_adaptive
 from .auto import choose_tracer
 from .denoise import denoise as oidn
+from .denoise import surface_passes
 from .errors import RenderCancelled
 from .plugins.integrators import TRACERS
 from .spectral import Film
@@ -33,6 +34,7 @@ def render(
     exposure=None,
     status=None,
     denoise=False,
+    aovs=False,
 ):
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
@@ -74,6 +76,11 @@ def render(
                the albedo and normal of the first surface each pixel sees: far less noise,
                some bias (off by default; docs/accuracy.md measures both). With
                target_error, the error is the noisy image's, which the denoiser lowers
+    aovs       also return the first surface each pixel sees, as Blender's and a denoiser's
+               passes: ``image, aovs = render(..., aovs=True)``, aovs["albedo"] and
+               aovs["normal"] (h, w, 3; world space), aovs["depth"] (h, w; distance along the
+               camera's view axis, inf where nothing is hit), each the mean over the pixel's
+               samples (volpath.denoise.surface_passes)
 
     The GIL is released while rendering; Ctrl-C cancels within a fraction of a second.
     Statistics are left in ``scene.last_render``: seconds, non-finite samples discarded, and
@@ -109,7 +116,7 @@ def render(
         scene.max_null_collisions,
         scene.light_distances if light_distances is None else bool(light_distances),
     )
-    features = np.zeros((scene.height, scene.width, 2, 3)) if denoise else None
+    features = np.zeros((scene.height, scene.width, 8)) if denoise or aovs else None
     samples = per_pass
     if target_error is not None:
         if scene.passes:
@@ -139,7 +146,7 @@ def render(
     scene.last_render = stats
     if stats["cancelled"]:
         raise RenderCancelled(image)
-    return image
+    return (image, surface_passes(features, samples)) if aovs else image
 
 
 def _render_spectral(passes, args, progress, out, sobol, features):

@@ -115,7 +115,7 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     settings.starts = pixel_array(starts, "starts", {h, w}, static_cast<uint32_t *>(nullptr));
     settings.counts = pixel_array(counts, "counts", {h, w}, static_cast<uint32_t *>(nullptr));
     settings.halves = pixel_array(halves, "halves", {h, w, 2, 3}, static_cast<double *>(nullptr));
-    settings.features = pixel_array(features, "features", {h, w, 2, 3}, static_cast<double *>(nullptr));
+    settings.features = pixel_array(features, "features", {h, w, 8}, static_cast<double *>(nullptr));
 
     // Rendering into a caller's array lets a progress callback show finished tiles.
     py::array_t<float> image;

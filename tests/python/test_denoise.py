@@ -11,6 +11,7 @@ import scenes as S
 import volpath
 from volpath import _core
 from volpath.adaptive import SLACK
+from volpath.denoise import surface_passes
 from volpath.plugins.integrators import TRACERS
 from volpath.tonemap import auto_exposure, display
 
@@ -19,9 +20,9 @@ WALL = """<shape type="rectangle"><transform name="to_world"><scale x="1" y="3"/
 
 
 def features(scene, spp=4):
-    f = np.zeros((scene.height, scene.width, 2, 3))
+    f = np.zeros((scene.height, scene.width, 8))
     _core.render(scene.native, spp, 0, 1, TRACERS.index("nee_mis"), -1, 5, 1000, True, features=f)
-    return f / spp
+    return surface_passes(f, spp)
 
 
 def test_passes_hold_the_first_surface_through_boundaries_and_fog():
@@ -38,10 +39,21 @@ def test_passes_hold_the_first_surface_through_boundaries_and_fog():
         )
     )
     f = features(scene)
-    albedo, normal = f[:, :, 0], f[:, :, 1]
+    albedo, normal = f["albedo"], f["normal"]
     left, right = np.s_[:, :6], np.s_[:, 10:]  # Mitsuba's camera: +x is the image's left
     assert np.allclose(albedo[left], [0.2, 0.4, 0.6]) and np.allclose(normal[left], [0, 0, 1])
     assert np.allclose(albedo[right], 1) and np.allclose(normal[right], 0)
+    # Depth along the view axis: the wall (z = -1) 6 units from the camera (z = 5), whatever
+    # the pixel's angle; nothing on the right.
+    assert np.allclose(f["depth"][left], 6) and np.all(np.isinf(f["depth"][right]))
+
+
+def test_render_returns_the_passes_it_was_asked_for_with_the_same_image():
+    scene = volpath.load_string(S.scene(S.camera(res=8, spp=4), WALL, S.point_light()))
+    image, aovs = volpath.render(scene, seed=3, aovs=True)
+    assert np.array_equal(image, volpath.render(scene, seed=3))  # the passes change no sample
+    assert set(aovs) == {"albedo", "normal", "depth"} and aovs["depth"].shape == (8, 8)
+    assert aovs["albedo"].dtype == np.float32 and aovs["albedo"].shape == (8, 8, 3)
 
 
 def test_denoised_render_is_closer_to_the_reference_and_keeps_the_means():

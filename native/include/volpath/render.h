@@ -24,8 +24,9 @@ struct RenderSettings {
     // (the even ones are the seed's own), so the halves' difference estimates the
     // variance of their mean without bias, stratified sampling or not.
     double *halves = nullptr;
-    // A denoiser's auxiliary passes (per pixel: albedo RGB and normal xyz of the first
-    // surface, see first_surface, 6 doubles summed over the samples, added to), or null.
+    // The first surface's passes (see first_surface), per pixel 8 doubles summed over the
+    // samples, added to: albedo RGB, normal xyz, depth along the camera's view axis (where
+    // a surface is hit), and the count of samples that hit one; or null.
     double *features = nullptr;
 };
 
@@ -46,13 +47,15 @@ struct RenderStats {
     bool cancelled = false;
 };
 
-// What a denoiser's albedo and normal passes hold for a camera ray: the first surface it
-// meets through index-matched boundaries (media are looked through), its albedo
-// (bsdf_albedo) and world-space shading normal facing the ray; white and no normal where
-// the ray leaves the scene or meets an emitter.
+// What the albedo, normal and depth passes (a denoiser's, Blender's) hold for a camera
+// ray: the first surface it meets through index-matched boundaries (media are looked
+// through), its albedo (bsdf_albedo), world-space shading normal facing the ray, and where
+// it is; white and no normal where the ray leaves the scene or meets an emitter.
 struct SurfaceFeatures {
     Spectrum albedo{1.0};
     Vec3 normal{0.0};
+    bool hit = false;
+    Vec3 position{0.0};
 };
 SurfaceFeatures first_surface(const Scene &scene, Ray ray);
 

@@ -42,9 +42,10 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
         Intersection its;
         if (!scene.intersect(ray, its)) break;
         const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
-        if (shape.light >= 0) break;
+        if (shape.light >= 0) return {Spectrum(1.0), Vec3(0.0), true, its.p};
         if (shape.bsdf >= 0 && !is_null(scene.bsdfs[size_t(shape.bsdf)]))
-            return {bsdf_albedo(scene.bsdfs[size_t(shape.bsdf)]), dot(its.ns, ray.d) > 0 ? -its.ns : its.ns};
+            return {bsdf_albedo(scene.bsdfs[size_t(shape.bsdf)]), dot(its.ns, ray.d) > 0 ? -its.ns : its.ns, true,
+                    its.p};
         ray = spawn_ray(its.p, its.n, ray.d);
     }
     return {};
@@ -53,6 +54,7 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
 RenderStats render(const Scene &scene, const RenderSettings &settings, float *image, RenderProgress &progress) {
     const auto start = std::chrono::steady_clock::now();
     const Camera &cam = scene.camera;
+    const Vec3 eye = cam.to_world.point(Vec3(0.0)), forward = normalize(cam.to_world.vector(Vec3(0, 0, 1)));
     const int tiles_x = (cam.width + kTileSize - 1) / kTileSize;
     const int64_t tiles_total = int64_t(tiles_x) * ((cam.height + kTileSize - 1) / kTileSize);
     const int64_t pixels = int64_t(cam.width) * cam.height;
@@ -81,6 +83,7 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                     const uint64_t first = settings.first_sample + (settings.starts ? settings.starts[pixel] : 0);
                     Spectrum sum[2] = {Spectrum(0.0), Spectrum(0.0)}, albedo(0.0);
                     Vec3 normal(0.0);
+                    double depth = 0, hits = 0;
                     for (int64_t s = 0; s < count; ++s) {
                         // A pixel of many samples must not delay a cancel.
                         if ((s & 63) == 63 && progress.cancel.load(std::memory_order_relaxed)) break;
@@ -92,6 +95,7 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                         if (settings.features) {
                             const SurfaceFeatures f = first_surface(scene, ray);
                             albedo += f.albedo, normal += f.normal;
+                            if (f.hit) depth += dot(f.position - eye, forward), hits += 1;
                         }
                         const Spectrum L = radiance(scene, ray, cam.medium, sampler, settings.tracer);
                         if (!is_finite(L)) {
@@ -116,9 +120,10 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                         h[3] += sum[1].x, h[4] += sum[1].y, h[5] += sum[1].z;
                     }
                     if (settings.features) {
-                        double *f = settings.features + pixel * 6;
+                        double *f = settings.features + pixel * 8;
                         f[0] += albedo.x, f[1] += albedo.y, f[2] += albedo.z;
                         f[3] += normal.x, f[4] += normal.y, f[5] += normal.z;
+                        f[6] += depth, f[7] += hits;
                     }
                 }
             }
