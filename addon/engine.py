@@ -35,6 +35,8 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
             for message in exported.notes:
                 self.report({"INFO"}, f"Volpath: {message}")
             vp_scene = volpath.load_dict(exported.scene, source=f"{scene.name} (frame {scene.frame_current})")
+            for message in vp_scene.summary["warnings"]:  # e.g. a VDB's negative voxels, clamped
+                self.report({"WARNING"}, f"Volpath: {message}")
             tracer, auto = resolve_tracer(vp_scene, settings.tracer, settings.tolerance, vp_scene.max_depth)
         except (ExportError, volpath.SceneError, ValueError) as e:
             self.report({"ERROR"}, f"Volpath: {e}")

@@ -6,7 +6,7 @@ image = volpath.render(scene, seed=1)          # float32 (height, width, 3)
 volpath.write_exr("out.exr", image)
 """
 
-from .errors import RenderCancelled, SceneError
+from .errors import RenderCancelled, SceneError, SceneWarning
 from .exr import read_exr, write_exr
 from .plugins.integrators import TRACERS
 from .render import render
@@ -18,6 +18,7 @@ __all__ = [
     "RenderCancelled",
     "Scene",
     "SceneError",
+    "SceneWarning",
     "TRACERS",
     "VolumeGrid",
     "load_dict",

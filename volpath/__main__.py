@@ -5,14 +5,24 @@ import json
 import os
 import sys
 import time
+import warnings
 
 from . import __version__
 from .adaptive import describe
-from .errors import SceneError
+from .errors import SceneError, SceneWarning
 from .exr import write_exr
 from .plugins.integrators import TRACERS
 from .render import render
 from .scene import load_file
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A scene's warnings as the CLI's own lines ("volpath: warning: file:line: ..."), not
+    Python's (which name Volpath's source)."""
+    if issubclass(category, SceneWarning):
+        print(f"volpath: warning: {message}", file=sys.stderr)
+    else:
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 def _params(defines, parser):
@@ -160,6 +170,9 @@ def _info(args, parser):
     print(f"  emitters  {len(s['emitters'])}")
     for e in s["emitters"]:
         print(f"    {e['type']}")
+    print(f"  warnings  {len(s['warnings'])}")
+    for w in s["warnings"]:
+        print(f"    {w}")
 
 
 def main(argv=None):
@@ -195,6 +208,7 @@ def main(argv=None):
     i.add_argument("-D", "--define", action="append", metavar="NAME=VALUE")
     i.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
+    warnings.showwarning = _show_warning
     try:
         if args.command == "render":
             if args.spp is not None and args.spp < 1:

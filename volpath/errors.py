@@ -6,6 +6,13 @@ class SceneError(ValueError):
     problem has a place in a file, then says what was expected."""
 
 
+class SceneWarning(UserWarning):
+    """A scene loaded, but something in it does not mean what it says for Volpath: a
+    parameter an older spelling defines that changes nothing here, negative voxels clamped.
+    The message starts with ``file:line:`` (or the grid's file) as a SceneError's does; the
+    loaded scene lists them in ``scene.summary["warnings"]``."""
+
+
 class RenderCancelled(RuntimeError):
     """The progress callback asked to stop. ``image`` holds the pixels finished so far."""
 

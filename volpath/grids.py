@@ -7,10 +7,11 @@ fastest: index ((z * yres + y) * xres + x) * channels + c.
 
 import os
 import struct
+import warnings
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, SceneWarning
 
 # A grid larger than this many values is refused before anything is allocated.
 MAX_VOXEL_VALUES = 1 << 31
@@ -45,9 +46,20 @@ def read_vol(path):
         data = np.fromfile(f, dtype="<f4", count=count)
     if not np.all(np.isfinite(data)):
         raise SceneError(f"{path}: the grid contains NaN or infinite values")
-    if data.min() < 0:
-        raise SceneError(f"{path}: the grid contains negative values (densities must be >= 0)")
+    clamp_negative(data, path)
     return data.reshape(zres, yres, xres, channels).astype(np.float32), bbox
+
+
+def clamp_negative(values, what):
+    """Negative voxels (filtering leaves a few) set to 0 in place, with a SceneWarning that
+    counts them: densities, albedos and temperatures are >= 0."""
+    negative = values < 0
+    count = int(np.count_nonzero(negative))
+    if count:
+        values[negative] = 0
+        warnings.warn(
+            SceneWarning(f"{what}: {count} negative voxel{'s' if count > 1 else ''} clamped to 0"), stacklevel=3
+        )
 
 
 def write_vol(path, data, bbox=((0, 0, 0), (1, 1, 1))):

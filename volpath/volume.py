@@ -17,7 +17,7 @@ import numpy as np
 
 from . import _core, vdb
 from .errors import SceneError
-from .grids import read_vol
+from .grids import clamp_negative, read_vol
 
 
 class VolumeGrid:
@@ -37,6 +37,8 @@ class VolumeGrid:
             data = data[..., None]
         if data.ndim != 4 or data.shape[3] not in (1, 3) or data.size == 0:
             raise SceneError(f"a grid must have shape (z, y, x) or (z, y, x, 1 or 3), got {data.shape}")
+        if np.any(data < 0):
+            data = data.copy()  # the caller's array stays as it is
         _check_values(data, "the array")
         return cls(_core.VoxelGrid.from_dense(np.ascontiguousarray(data)), to_world)
 
@@ -151,8 +153,7 @@ def sequence_path(path, frame):
 def _check_values(values, what):
     if not np.all(np.isfinite(values)):
         raise SceneError(f"{what} contains NaN or infinite values")
-    if values.size and values.min() < 0:
-        raise SceneError(f"{what} contains negative values (densities, albedos and temperatures must be >= 0)")
+    clamp_negative(values, what)
 
 
 def _read_vdb(path, name, user_to_world):

@@ -1,5 +1,7 @@
 """Scene loading: both spellings, parameters, meshes, and an error for every bad input."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -212,11 +214,10 @@ def test_bad_grid_files(tmp_path):
     data = (tmp_path / "ok.vol").read_bytes()
     (tmp_path / "short.vol").write_bytes(data[:-8])
     write_vol(tmp_path / "nan.vol", np.full((2, 2, 2), np.nan))
-    write_vol(tmp_path / "neg.vol", -np.ones((2, 2, 2)))
     huge = bytearray(data[:48])
     huge[8:12] = (1 << 30).to_bytes(4, "little")
     (tmp_path / "huge.vol").write_bytes(bytes(huge))
-    for name, msg in [("short", "truncated"), ("nan", "NaN"), ("neg", "negative"), ("huge", "larger than the limit")]:
+    for name, msg in [("short", "truncated"), ("nan", "NaN"), ("huge", "larger than the limit")]:
         xml = S.scene(
             S.camera(),
             f'<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
@@ -255,3 +256,49 @@ def test_load_dict_in_mitsubas_dictionary_form():
     assert np.allclose(image[0, 0], 1) and image[4, 4, 0] < 0.2  # through the sphere: about exp(-2)
     with pytest.raises(volpath.SceneError, match="'radius' must be a float"):
         volpath.load_dict({"type": "scene", "s": {"type": "sphere", "radius": "big"}})
+
+
+def test_old_spellings_that_change_nothing_load_with_a_warning_naming_file_and_line(tmp_path):
+    """Mitsuba 0.5's heterogeneous `method` and `step_size`, and a pinhole's
+    `focus_distance`: a SceneWarning each, with file:line, in the summary too; a misspelt
+    parameter stays an error."""
+    from volpath.grids import write_vol
+
+    write_vol(tmp_path / "d.vol", np.ones((2, 2, 2)))
+    xml = S.scene(
+        S.camera(extra='<float name="focus_distance" value="3"/>'),
+        '<medium type="heterogeneous" id="m"><string name="method" value="woodcock"/>'
+        '<float name="step_size" value="0.1"/>'
+        '<volume type="gridvolume" name="density"><string name="filename" value="d.vol"/></volume></medium>',
+        S.medium_cube("m"),
+    )
+    with pytest.warns(volpath.SceneWarning) as caught:
+        scene = volpath.load_string(xml, base_dir=str(tmp_path))
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 3 and scene.summary["warnings"] == messages
+    assert all(re.match(r"<string>:\d+: ", m) for m in messages), messages
+    assert any("'focus_distance' ignored" in m for m in messages) and any("'step_size' ignored" in m for m in messages)
+    with pytest.raises(volpath.SceneError, match="unexpected parameter.*'step_sise'"):
+        volpath.load_string(xml.replace("step_size", "step_sise"), base_dir=str(tmp_path))
+
+
+def test_negative_voxels_are_clamped_and_counted(tmp_path):
+    from volpath.grids import write_vol
+
+    data = np.ones((2, 2, 2))
+    data[0, 0, :] = -0.01  # what filtering leaves
+    write_vol(tmp_path / "neg.vol", data)
+    xml = S.scene(
+        S.camera(res=8, spp=4),
+        '<medium type="heterogeneous" id="m"><volume type="gridvolume" name="sigma_t">'
+        '<string name="filename" value="neg.vol"/></volume></medium>',
+        S.medium_cube("m"),
+    )
+    with pytest.warns(volpath.SceneWarning, match="neg.vol: 2 negative voxels clamped to 0"):
+        scene = volpath.load_string(xml, base_dir=str(tmp_path))
+    assert scene.summary["media"][0]["sigma_t_range"][0] == 0
+    assert np.all(np.isfinite(volpath.render(scene)))
+    array = -np.ones((2, 2, 2), np.float32)
+    with pytest.warns(volpath.SceneWarning, match="8 negative voxels"):
+        grid = volpath.VolumeGrid.from_numpy(array)
+    assert grid.min() == 0 and np.all(array == -1)  # the caller's array is left as it was

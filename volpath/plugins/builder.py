@@ -1,11 +1,12 @@
 """The builder the plugin kinds share (see __init__.py)."""
 
 import os
+import warnings
 
 import numpy as np
 
 from .. import _core
-from ..errors import SceneError, where
+from ..errors import SceneError, SceneWarning, where
 from . import bsdfs, emitters, integrators, kind_of, media, sensors, shapes
 from .params import Params
 
@@ -25,7 +26,7 @@ class Builder:
         self.media = {}  # id(dict) -> native index
         self.bsdfs = {}
         self.building = set()
-        self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None}
+        self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None, "warnings": []}
         self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []  # (native medium index, centre, top radius)
@@ -72,8 +73,15 @@ class Builder:
     # -- top level -----------------------------------------------------------------------
     def build(self):
         """Builds the native scene; returns the render settings (the integrator's, and
-        the sensor's spp)."""
-        return self._checked(self._build)
+        the sensor's spp). SceneWarnings go to summary["warnings"] too."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SceneWarning)
+            settings = self._checked(self._build)
+        for w in caught:
+            if issubclass(w.category, SceneWarning):
+                self.summary["warnings"].append(str(w.message))
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return settings
 
     def update(self, d):
         """Scene.update: the new sample count, or None where ``d`` changes more than the

@@ -59,6 +59,8 @@ def build(b, d):
     p = b.params(d, "medium")
     g = phase(b, p, d)
     p.raw("sample_emitters"), p.raw("has_spectral_extinction")
+    p.ignored("method", "Mitsuba 0.5's integration method: Volpath tracks every medium by null scattering")
+    p.ignored("step_size", "Mitsuba 0.5's ray-marching step: Volpath's trackers take no steps")
     scale = p.float("scale", 1.0, minimum=0.0)
     if p.type == "homogeneous":
         if p.has("sigma_a") or p.has("sigma_s"):  # Mitsuba 0.5 / lajolla

@@ -1,11 +1,12 @@
 """Parameter access with bookkeeping, and the colour conversions every plugin kind uses."""
 
 import math
+import warnings
 
 import numpy as np
 
 from .. import spectral
-from ..errors import SceneError, where
+from ..errors import SceneError, SceneWarning, where
 
 # Wavelengths (nm) at which sampled spectra are read for the R, G and B channels.
 RGB_WAVELENGTHS = (680.0, 550.0, 440.0)
@@ -99,6 +100,15 @@ class Params:
         if abs(np.linalg.det(m[:3, :3])) < 1e-300:
             raise self.error(f"'{name}' is singular")
         return m
+
+    def ignored(self, name, why):
+        """A parameter that an older spelling defines and that changes nothing in Volpath's
+        image: read, with a SceneWarning naming where it is."""
+        if name in self.d:
+            self.read.add(name)
+            warnings.warn(
+                SceneWarning(f"{where(self.loc)}{self.kind} '{self.type}': '{name}' ignored ({why})"), stacklevel=2
+            )
 
     def check(self):
         unknown = [k for k in self.d if k not in self.read]

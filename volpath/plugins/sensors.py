@@ -92,6 +92,8 @@ def build(b, d):
     if far <= near:
         raise p.error("'far_clip' must exceed 'near_clip'")
     p.raw("shutter_open"), p.raw("shutter_close"), p.raw("principal_point_offset_x"), p.raw("principal_point_offset_y")
+    if p.type == "perspective":
+        p.ignored("focus_distance", "a pinhole camera has no focus")
     # Blender's lens shift: fractions of the larger film side, the view moving right / up
     # (camera +x points left, hence the sign).
     span = 2 * max(tx, ty)
