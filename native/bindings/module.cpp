@@ -265,6 +265,12 @@ PYBIND11_MODULE(_core, m) {
             },
             py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
         .def(
+            "add_bsdf_roughdielectric",
+            [](Scene &s, double eta, double alpha) {
+                return s.add_bsdf({RoughDielectricBSDF{eta, std::max(alpha, 1e-4)}, false});
+            },
+            py::arg("eta"), py::arg("alpha"))
+        .def(
             "add_medium_homogeneous",
             [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g, Array3 Le) {
                 return s.add_medium(HomogeneousMedium{vec(sigma_a), vec(sigma_s), phase(g), vec(Le)});

@@ -389,6 +389,17 @@ void bind_probes(py::module_ &m) {
             o(i) = bsdf_pdf(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), normalize(ds[i]));
         return out;
     });
+    // f(wi, wo) |cos wo| per direction, (n, 3).
+    m.def("bsdf_eval", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &wos) {
+        const std::vector<Vec3> ds = points(wos, "directions");
+        py::array_t<double> out({ds.size(), size_t(3)});
+        auto o = out.mutable_unchecked<2>();
+        for (size_t i = 0; i < ds.size(); ++i) {
+            const Spectrum f = bsdf_eval(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), normalize(ds[i]));
+            o(i, 0) = f.x, o(i, 1) = f.y, o(i, 2) = f.z;
+        }
+        return out;
+    });
 }
 
 }  // namespace volpath::bindings

@@ -302,3 +302,17 @@ def test_negative_voxels_are_clamped_and_counted(tmp_path):
     with pytest.warns(volpath.SceneWarning, match="8 negative voxels"):
         grid = volpath.VolumeGrid.from_numpy(array)
     assert grid.min() == 0 and np.all(array == -1)  # the caller's array is left as it was
+
+
+def test_roughdielectric_loads_as_mitsuba_and_lajolla_write_it():
+    """Mitsuba's default distribution (Beckmann) renders as GGX, with a warning; named
+    IORs; anisotropic roughness is refused."""
+    glass = '<shape type="sphere"><bsdf type="roughdielectric"><string name="int_ior" value="water"/>{}</bsdf></shape>'
+    with pytest.warns(volpath.SceneWarning, match="GGX distribution stands in for Beckmann"):
+        scene = volpath.load_string(S.scene(S.camera(res=4), glass.format('<float name="alpha" value="0.2"/>')))
+    assert np.all(np.isfinite(volpath.render(scene, spp=4)))
+    ggx = '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/>'
+    assert volpath.load_string(S.scene(S.camera(res=4), glass.format(ggx))).summary["warnings"] == []
+    aniso = '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'
+    with pytest.raises(volpath.SceneError, match=r"<string>:\d+: .*anisotropic"):
+        volpath.load_string(S.scene(S.camera(res=4), glass.format(aniso)))

@@ -1,8 +1,10 @@
 """BSDF plugins: null, diffuse, dielectric, rough plastic, principled, twosided."""
 
+import warnings
+
 import numpy as np
 
-from ..errors import SceneError, where
+from ..errors import SceneError, SceneWarning, where
 from . import kind_of
 
 # Named indices of refraction (Mitsuba's table, the common entries).
@@ -49,6 +51,24 @@ def build(b, d, twosided=False):
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
         p.raw("specular_reflectance"), p.raw("specular_transmittance")
         index = n.add_bsdf_dielectric(eta)
+    elif p.type == "roughdielectric":
+        # Mitsuba's default distribution is Beckmann's; GGX stands in for it (close at
+        # small roughness, with longer tails), with a warning.
+        dist = p.str("distribution", "beckmann", ("ggx", "beckmann"))
+        if dist == "beckmann":
+            warnings.warn(
+                SceneWarning(f"{where(p.loc)}bsdf 'roughdielectric': the GGX distribution stands in for Beckmann's"),
+                stacklevel=2,
+            )
+        if p.has("alpha_u") or p.has("alpha_v"):
+            if p.float("alpha_u", 0.1) != p.float("alpha_v", 0.1):
+                raise p.error("anisotropic roughness (alpha_u != alpha_v) is not supported")
+            alpha = p.float("alpha_u", 0.1, minimum=0.0)
+        else:
+            alpha = p.float("alpha", 0.1, minimum=0.0)
+        eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
+        p.raw("specular_reflectance"), p.raw("specular_transmittance"), p.raw("sample_visible")
+        index = n.add_bsdf_roughdielectric(eta, max(alpha, 1e-3))
     elif p.type in ("roughplastic", "plastic"):
         dist = p.str("distribution", "ggx", ("ggx", "beckmann"))
         if dist != "ggx":
@@ -84,7 +104,10 @@ def build(b, d, twosided=False):
         specular = (1 - metallic) * np.ones(3) + metallic * base
         index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness**2, 1e-3), eta, twosided)
     else:
-        raise p.error("unknown bsdf (expected one of: null, diffuse, dielectric, roughplastic, principled, twosided)")
+        raise p.error(
+            "unknown bsdf (expected one of: null, diffuse, dielectric, roughdielectric, roughplastic, principled, "
+            "twosided)"
+        )
     p.check()
     b.building.discard(id(d))
     b.bsdfs[key] = index

@@ -29,7 +29,15 @@ struct RoughPlasticBSDF {
     Real eta = 1.49;
 };
 
-using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, RoughPlasticBSDF>;
+// A rough dielectric interface (Walter et al. 2007) with a GGX distribution: reflection
+// and refraction off microfacets, in proportion to their Fresnel reflectance (Mitsuba's and
+// lajolla's `roughdielectric`). eta = interior / exterior.
+struct RoughDielectricBSDF {
+    Real eta = 1.5046 / 1.000277;
+    Real alpha = 0.1;  // GGX roughness
+};
+
+using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, RoughPlasticBSDF, RoughDielectricBSDF>;
 
 struct BSDF {
     BSDFModel model;

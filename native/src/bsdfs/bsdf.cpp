@@ -43,6 +43,34 @@ Real ggx_g1(Real alpha, const Vec3 &v, const Vec3 &h) {
     return 2.0 / (1.0 + std::sqrt(1.0 + alpha * alpha * tan2));
 }
 
+// h ~ D(h) cos(theta_h), facing +z: tan^2 theta = alpha^2 u / (1 - u).
+Vec3 sample_ggx_normal(Real alpha, Vec2 u) {
+    const Real tan2 = alpha * alpha * u.x / (1.0 - u.x);
+    const Real cos_h = 1.0 / std::sqrt(1.0 + tan2);
+    const Real sin_h = safe_sqrt(1.0 - cos_h * cos_h);
+    const Real phi = 2.0 * kPi * u.y;
+    return {sin_h * std::cos(phi), sin_h * std::sin(phi), cos_h};
+}
+
+// The microfacet normal that takes wi to wo, facing +z: the half vector for reflection,
+// the generalised one wi + etap wo for refraction (etap: the index across, seen from wi's
+// side); zero where the pair is degenerate or a facet would be seen from behind.
+struct Microfacet {
+    Vec3 h{0.0};
+    Real etap = 1;
+    bool reflect = true;
+};
+Microfacet microfacet(const Vec3 &wi, const Vec3 &wo, Real eta) {
+    Microfacet m;
+    m.reflect = wi.z * wo.z > 0;
+    m.etap = m.reflect ? 1.0 : (wi.z > 0 ? eta : 1.0 / eta);
+    const Vec3 h = wi + wo * m.etap;
+    if (wi.z == 0 || wo.z == 0 || dot(h, h) == 0) return {};
+    m.h = normalize(h) * (h.z < 0 ? -1.0 : 1.0);
+    if (dot(m.h, wi) * wi.z <= 0 || dot(m.h, wo) * wo.z <= 0) m.h = Vec3(0.0);
+    return m;
+}
+
 // Probability of choosing the specular lobe of the rough plastic: proportional to the
 // energy each lobe returns at this incident angle, kept away from 0 and 1 so that
 // both lobes stay reachable.
@@ -56,6 +84,17 @@ Real plastic_specular_probability(const RoughPlasticBSDF &b, Real cos_i) {
 struct Eval {
     Vec3 wi, wo;
     Spectrum operator()(const NullBSDF &) const { return Spectrum(0.0); }
+    // D G F / (4 |cos_i|) on reflection; on refraction D G (1 - F) |wi.h| |wo.h| /
+    // (cos_i (wo.h + wi.h / etap)^2) / etap^2, radiance compressed on entering (pbrt-v4).
+    Spectrum operator()(const RoughDielectricBSDF &b) const {
+        const Microfacet m = microfacet(wi, wo, b.eta);
+        if (m.h.z == 0) return Spectrum(0.0);
+        const Real F = fresnel_dielectric(dot(wi, m.h), b.eta);
+        const Real DG = ggx_d(b.alpha, m.h) * ggx_g1(b.alpha, wi, m.h) * ggx_g1(b.alpha, wo, m.h);
+        if (m.reflect) return Spectrum(DG * F / (4.0 * std::abs(wi.z)));
+        const Real denom = sqr(dot(wo, m.h) + dot(wi, m.h) / m.etap) * std::abs(wi.z);
+        return Spectrum(DG * (1.0 - F) * std::abs(dot(wo, m.h) * dot(wi, m.h)) / denom / sqr(m.etap));
+    }
     Spectrum operator()(const DielectricBSDF &) const { return Spectrum(0.0); }
     Spectrum operator()(const DiffuseBSDF &b) const {
         if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
@@ -79,6 +118,16 @@ struct Eval {
 struct Pdf {
     Vec3 wi, wo;
     Real operator()(const NullBSDF &) const { return 0; }
+    // The facet's density D(h) cos(theta_h), times the Jacobian to wo, times the chance of
+    // the lobe (Fresnel's).
+    Real operator()(const RoughDielectricBSDF &b) const {
+        const Microfacet m = microfacet(wi, wo, b.eta);
+        if (m.h.z == 0) return 0;
+        const Real F = fresnel_dielectric(dot(wi, m.h), b.eta);
+        const Real pdf_h = ggx_d(b.alpha, m.h) * m.h.z;
+        if (m.reflect) return pdf_h / (4.0 * std::abs(dot(wo, m.h))) * F;
+        return pdf_h * std::abs(dot(wo, m.h)) / sqr(dot(wo, m.h) + dot(wi, m.h) / m.etap) * (1.0 - F);
+    }
     Real operator()(const DielectricBSDF &) const { return 0; }
     Real operator()(const DiffuseBSDF &) const { return wi.z > 0 ? cosine_hemisphere_pdf(wo.z) : 0.0; }
     Real operator()(const RoughPlasticBSDF &b) const {
@@ -121,16 +170,34 @@ struct Sample {
         }
         return true;
     }
+    bool operator()(const RoughDielectricBSDF &b) const {
+        if (wi.z == 0) return false;
+        const Vec3 h = sample_ggx_normal(b.alpha, u);
+        const Real cos_ih = dot(wi, h);
+        if (cos_ih * wi.z <= 0) return false;  // a facet seen from behind
+        Real cos_t;
+        const Real F = fresnel_dielectric(cos_ih, b.eta, &cos_t);
+        const bool reflect = u_lobe < F;
+        if (reflect) {
+            out.wo = h * (2.0 * cos_ih) - wi;
+        } else {
+            const Real eta_ti = cos_ih >= 0 ? 1.0 / b.eta : b.eta;
+            out.wo = h * (eta_ti * cos_ih + cos_t) - wi * eta_ti;
+        }
+        // Off a steep facet, a direction may land on the side the other lobe owns: the
+        // density there is that lobe's alone.
+        if ((out.wo.z * wi.z > 0) != reflect) return false;
+        out.delta = false;
+        out.pdf = Pdf{wi, out.wo}(b);
+        if (!(out.pdf > 0)) return false;
+        out.weight = Eval{wi, out.wo}(b) / out.pdf;
+        return true;
+    }
     bool operator()(const RoughPlasticBSDF &b) const {
         if (wi.z <= 0) return false;
         const Real p_spec = plastic_specular_probability(b, wi.z);
         if (u_lobe < p_spec) {
-            // h ~ D(h) cos(theta_h): tan^2 theta = alpha^2 u / (1 - u).
-            const Real tan2 = b.alpha * b.alpha * u.x / (1.0 - u.x);
-            const Real cos_h = 1.0 / std::sqrt(1.0 + tan2);
-            const Real sin_h = safe_sqrt(1.0 - cos_h * cos_h);
-            const Real phi = 2.0 * kPi * u.y;
-            const Vec3 h{sin_h * std::cos(phi), sin_h * std::sin(phi), cos_h};
+            const Vec3 h = sample_ggx_normal(b.alpha, u);
             out.wo = h * (2.0 * dot(wi, h)) - wi;
         } else {
             out.wo = sample_cosine_hemisphere(u);
@@ -160,6 +227,7 @@ Spectrum bsdf_albedo(const BSDF &bsdf) {
         Spectrum operator()(const DiffuseBSDF &b) const { return b.reflectance; }
         Spectrum operator()(const DielectricBSDF &) const { return Spectrum(1.0); }
         Spectrum operator()(const RoughPlasticBSDF &b) const { return b.diffuse; }
+        Spectrum operator()(const RoughDielectricBSDF &) const { return Spectrum(1.0); }
     };
     return std::visit(Albedo{}, bsdf.model);
 }
