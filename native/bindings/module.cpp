@@ -265,6 +265,9 @@ PYBIND11_MODULE(_core, m) {
             },
             py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
         .def(
+            "add_bsdf_thindielectric", [](Scene &s, double eta) { return s.add_bsdf({ThinDielectricBSDF{eta}, false}); },
+            py::arg("eta"))
+        .def(
             "add_bsdf_roughdielectric",
             [](Scene &s, double eta, double alpha) {
                 return s.add_bsdf({RoughDielectricBSDF{eta, std::max(alpha, 1e-4)}, false});

@@ -7,6 +7,7 @@ import pytest
 
 import scenes as S
 import volpath
+from volpath import _core
 from volpath.testing import render_batches
 
 SCATTERING_TRACERS = ["multiple", "nee_mis", "null_scattering"]
@@ -180,3 +181,35 @@ def test_rough_glass_in_a_furnace_loses_only_what_facets_shadow(alpha):
     image_mean = mean.mean(axis=(0, 1))
     image_se = np.sqrt((se**2).mean(axis=(0, 1)) / (mean.shape[0] * mean.shape[1]))
     assert np.all(image_mean <= 1 + 5 * image_se) and np.all(image_mean > 0.9), (image_mean, image_se)
+
+
+def test_thin_glass_reflects_twice_fresnels_share_and_loses_nothing():
+    """A thin sheet reflects 2R / (1 + R) (both faces and the light bouncing between them,
+    R the Fresnel reflectance of one face), from either side, and passes the rest straight
+    through: in a white furnace, a pane returns exactly 1."""
+    scene = volpath.load_string(
+        S.scene(S.camera(res=4), '<shape type="rectangle"><bsdf type="thindielectric"/></shape>')
+    )
+    eta = 1.5046 / 1.000277
+    u = np.random.default_rng(2).random((100_000, 3))
+    for wi in ((0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.6, 0.0, -0.8)):
+        dirs, pdfs = _core.bsdf_sample(scene.native, 0, wi, u)
+        cos_i = abs(wi[2])
+        cos_t = np.sqrt(1 - (1 - cos_i**2) / eta**2)
+        R = (
+            (cos_i - eta * cos_t) ** 2 / (cos_i + eta * cos_t) ** 2
+            + (eta * cos_i - cos_t) ** 2 / (eta * cos_i + cos_t) ** 2
+        ) / 2
+        reflected = dirs[:, 2] * wi[2] > 0
+        p = 2 * R / (1 + R)
+        assert abs(reflected.mean() - p) < 4 * np.sqrt(p * (1 - p) / len(u)), (wi, reflected.mean(), p)
+        assert np.allclose(dirs[~reflected], -np.asarray(wi))  # straight through
+    furnace = volpath.load_string(
+        S.scene(
+            S.camera(res=8, fov=40, spp=8),
+            '<shape type="rectangle"><bsdf type="thindielectric"/><transform name="to_world"><rotate x="1" angle="30"/>'
+            "</transform></shape>",
+            S.constant_env("1, 1, 1"),
+        )
+    )
+    assert np.allclose(volpath.render(furnace, tracer="nee_mis"), 1, atol=1e-5)

@@ -46,11 +46,9 @@ def build(b, d, twosided=False):
     elif p.type == "diffuse":
         index = n.add_bsdf_diffuse(reflectance(p, "reflectance", 0.5), twosided)
     elif p.type in ("dielectric", "thindielectric"):
-        if p.type == "thindielectric":
-            raise p.error("thin dielectrics are not supported (use 'dielectric')")
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
         p.raw("specular_reflectance"), p.raw("specular_transmittance")
-        index = n.add_bsdf_dielectric(eta)
+        index = n.add_bsdf_dielectric(eta) if p.type == "dielectric" else n.add_bsdf_thindielectric(eta)
     elif p.type == "roughdielectric":
         # Mitsuba's default distribution is Beckmann's; GGX stands in for it (close at
         # small roughness, with longer tails), with a warning.
@@ -105,7 +103,8 @@ def build(b, d, twosided=False):
         index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness**2, 1e-3), eta, twosided)
     else:
         raise p.error(
-            "unknown bsdf (expected one of: null, diffuse, dielectric, roughdielectric, roughplastic, principled, "
+            "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, roughplastic, "
+            "principled, "
             "twosided)"
         )
     p.check()

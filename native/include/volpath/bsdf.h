@@ -19,6 +19,11 @@ struct DiffuseBSDF {
 struct DielectricBSDF {
     Real eta = 1.5046 / 1.000277;
 };
+// A thin dielectric sheet (a window pane): light reflects off it, inter-reflections between
+// its two faces included, or passes straight through; eta = sheet / surroundings.
+struct ThinDielectricBSDF {
+    Real eta = 1.5046 / 1.000277;
+};
 // A diffuse base under a rough dielectric coating with a GGX microfacet distribution
 // (the model of Mitsuba's `roughplastic`, with smooth-Fresnel transmittance through the
 // coating). Blender's Principled BSDF maps onto it.
@@ -37,7 +42,8 @@ struct RoughDielectricBSDF {
     Real alpha = 0.1;  // GGX roughness
 };
 
-using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, RoughPlasticBSDF, RoughDielectricBSDF>;
+using BSDFModel =
+    std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, ThinDielectricBSDF, RoughPlasticBSDF, RoughDielectricBSDF>;
 
 struct BSDF {
     BSDFModel model;
@@ -52,7 +58,9 @@ struct BSDFSample {
 };
 
 inline bool is_null(const BSDF &b) { return std::holds_alternative<NullBSDF>(b.model); }
-inline bool is_delta(const BSDF &b) { return std::holds_alternative<DielectricBSDF>(b.model); }
+inline bool is_delta(const BSDF &b) {
+    return std::holds_alternative<DielectricBSDF>(b.model) || std::holds_alternative<ThinDielectricBSDF>(b.model);
+}
 
 // The colour a denoiser's albedo pass holds for the surface: its diffuse reflectance, or
 // white where it reflects or transmits specularly.

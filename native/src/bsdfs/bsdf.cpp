@@ -96,6 +96,7 @@ struct Eval {
         return Spectrum(DG * (1.0 - F) * std::abs(dot(wo, m.h) * dot(wi, m.h)) / denom / sqr(m.etap));
     }
     Spectrum operator()(const DielectricBSDF &) const { return Spectrum(0.0); }
+    Spectrum operator()(const ThinDielectricBSDF &) const { return Spectrum(0.0); }
     Spectrum operator()(const DiffuseBSDF &b) const {
         if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
         return b.reflectance * (kInvPi * wo.z);
@@ -129,6 +130,7 @@ struct Pdf {
         return pdf_h * std::abs(dot(wo, m.h)) / sqr(dot(wo, m.h) + dot(wi, m.h) / m.etap) * (1.0 - F);
     }
     Real operator()(const DielectricBSDF &) const { return 0; }
+    Real operator()(const ThinDielectricBSDF &) const { return 0; }
     Real operator()(const DiffuseBSDF &) const { return wi.z > 0 ? cosine_hemisphere_pdf(wo.z) : 0.0; }
     Real operator()(const RoughPlasticBSDF &b) const {
         if (wi.z <= 0 || wo.z <= 0) return 0;
@@ -167,6 +169,23 @@ struct Sample {
             out.wo = {-wi.x * eta_ti, -wi.y * eta_ti, cos_t};
             out.pdf = 1.0 - r;
             out.weight = Spectrum(eta_ti * eta_ti);
+        }
+        return true;
+    }
+    // Each face reflects R; the light that enters bounces between them: R + T^2 R / (1 - R^2)
+    // = 2 R / (1 + R) in all, the rest passes through unbent.
+    bool operator()(const ThinDielectricBSDF &b) const {
+        if (wi.z == 0) return false;
+        Real R = fresnel_dielectric(std::abs(wi.z), b.eta);
+        if (R < 1) R += (1 - R) * (1 - R) * R / (1 - R * R);
+        out.delta = true;
+        out.weight = Spectrum(1.0);
+        if (u_lobe < R) {
+            out.wo = {-wi.x, -wi.y, wi.z};
+            out.pdf = R;
+        } else {
+            out.wo = -wi;
+            out.pdf = 1 - R;
         }
         return true;
     }
@@ -226,6 +245,7 @@ Spectrum bsdf_albedo(const BSDF &bsdf) {
         Spectrum operator()(const NullBSDF &) const { return Spectrum(0.0); }
         Spectrum operator()(const DiffuseBSDF &b) const { return b.reflectance; }
         Spectrum operator()(const DielectricBSDF &) const { return Spectrum(1.0); }
+        Spectrum operator()(const ThinDielectricBSDF &) const { return Spectrum(1.0); }
         Spectrum operator()(const RoughPlasticBSDF &b) const { return b.diffuse; }
         Spectrum operator()(const RoughDielectricBSDF &) const { return Spectrum(1.0); }
     };
