@@ -268,6 +268,12 @@ PYBIND11_MODULE(_core, m) {
             "add_bsdf_thindielectric", [](Scene &s, double eta) { return s.add_bsdf({ThinDielectricBSDF{eta}, false}); },
             py::arg("eta"))
         .def(
+            "add_bsdf_conductor",
+            [](Scene &s, Array3 eta, Array3 k, Array3 specular, double alpha, bool twosided) {
+                return s.add_bsdf({ConductorBSDF{vec(eta), vec(k), vec(specular), alpha}, twosided});
+            },
+            py::arg("eta"), py::arg("k"), py::arg("specular"), py::arg("alpha"), py::arg("twosided") = false)
+        .def(
             "add_bsdf_roughdielectric",
             [](Scene &s, double eta, double alpha) {
                 return s.add_bsdf({RoughDielectricBSDF{eta, std::max(alpha, 1e-4)}, false});

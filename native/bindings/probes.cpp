@@ -389,6 +389,20 @@ void bind_probes(py::module_ &m) {
             o(i) = bsdf_pdf(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), normalize(ds[i]));
         return out;
     });
+    // The weight (f |cos wo| / pdf) of each sample bsdf_sample draws, (n, 3); 0 where it fails.
+    m.def("bsdf_sample_weight", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &u) {
+        const size_t n = size_t(u.shape(0));
+        py::array_t<double> out({n, size_t(3)});
+        auto o = out.mutable_unchecked<2>();
+        for (size_t i = 0; i < n; ++i) {
+            BSDFSample bs;
+            const bool ok =
+                bsdf_sample(s.bsdfs.at(size_t(bsdf)), normalize(vec(wi)), u.at(i, 0), {u.at(i, 1), u.at(i, 2)}, bs);
+            const Spectrum w = ok ? bs.weight : Spectrum(0.0);
+            o(i, 0) = w.x, o(i, 1) = w.y, o(i, 2) = w.z;
+        }
+        return out;
+    });
     // f(wi, wo) |cos wo| per direction, (n, 3).
     m.def("bsdf_eval", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &wos) {
         const std::vector<Vec3> ds = points(wos, "directions");

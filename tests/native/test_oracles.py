@@ -213,3 +213,33 @@ def test_thin_glass_reflects_twice_fresnels_share_and_loses_nothing():
         )
     )
     assert np.allclose(volpath.render(furnace, tracer="nee_mis"), 1, atol=1e-5)
+
+
+def test_conductors_reflect_their_fresnel_reflectance():
+    """A smooth conductor's one sample weighs its Fresnel reflectance: at normal incidence
+    ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2) per channel; with k = 0, a dielectric's at any
+    angle; a perfect mirror (material "none") returns exactly 1 in a white furnace."""
+    eta, k = np.array([0.2, 0.9, 1.5]), np.array([3.9, 2.4, 0.0])
+    metal = (
+        '<shape type="sphere"><bsdf type="conductor">'
+        f'<rgb name="eta" value="{", ".join(map(str, eta))}"/><rgb name="k" value="{", ".join(map(str, k))}"/>'
+        "</bsdf></shape>"
+    )
+    scene = volpath.load_string(S.scene(S.camera(res=4), metal))
+    u = np.full((1, 3), 0.5)
+    ext = 1.000277  # the surroundings' index, Mitsuba's default ext_eta
+    n, kk = eta / ext, k / ext
+    weight = _core.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u)[0]
+    assert np.allclose(weight, ((n - 1) ** 2 + kk**2) / ((n + 1) ** 2 + kk**2), rtol=1e-9)
+    cos_i = 0.6
+    weight = _core.bsdf_sample_weight(scene.native, 0, (0.8, 0.0, cos_i), u)[0]
+    cos_t = np.sqrt(1 - (1 - cos_i**2) / n[2] ** 2)
+    rs = (cos_i - n[2] * cos_t) / (cos_i + n[2] * cos_t)
+    rp = (n[2] * cos_i - cos_t) / (n[2] * cos_i + cos_t)
+    assert weight[2] == pytest.approx((rs**2 + rp**2) / 2, rel=1e-9)
+    mirror = volpath.load_string(
+        S.scene(
+            S.camera(res=8, spp=4), '<shape type="sphere"><bsdf type="conductor"/></shape>', S.constant_env("1, 1, 1")
+        )
+    )
+    assert np.allclose(volpath.render(mirror, tracer="nee_mis"), 1, atol=1e-5)

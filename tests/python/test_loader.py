@@ -316,3 +316,9 @@ def test_roughdielectric_loads_as_mitsuba_and_lajolla_write_it():
     aniso = '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'
     with pytest.raises(volpath.SceneError, match=r"<string>:\d+: .*anisotropic"):
         volpath.load_string(S.scene(S.camera(res=4), glass.format(aniso)))
+
+
+def test_named_conductors_ask_for_eta_and_k():
+    metal = '<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>'
+    with pytest.raises(volpath.SceneError, match=r"<string>:\d+: .*named conductor 'Au'.*'eta' and 'k'"):
+        volpath.load_string(S.scene(S.camera(res=4), metal))

@@ -97,7 +97,13 @@ def test_envmap_sampling(tmp_path):
 
 @pytest.mark.parametrize("wi", [(0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.95, 0.1, 0.3)])
 @pytest.mark.parametrize(
-    "bsdf", ['<bsdf type="diffuse"/>', '<bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>']
+    "bsdf",
+    [
+        '<bsdf type="diffuse"/>',
+        '<bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>',
+        '<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.3"/>'
+        '<rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.1"/></bsdf>',
+    ],
 )
 def test_bsdf_sampling(bsdf, wi):
     scene = volpath.load_string(S.scene(S.camera(res=4), f'<shape type="sphere">{bsdf}</shape>'))

@@ -50,23 +50,19 @@ def build(b, d, twosided=False):
         p.raw("specular_reflectance"), p.raw("specular_transmittance")
         index = n.add_bsdf_dielectric(eta) if p.type == "dielectric" else n.add_bsdf_thindielectric(eta)
     elif p.type == "roughdielectric":
-        # Mitsuba's default distribution is Beckmann's; GGX stands in for it (close at
-        # small roughness, with longer tails), with a warning.
-        dist = p.str("distribution", "beckmann", ("ggx", "beckmann"))
-        if dist == "beckmann":
-            warnings.warn(
-                SceneWarning(f"{where(p.loc)}bsdf 'roughdielectric': the GGX distribution stands in for Beckmann's"),
-                stacklevel=2,
-            )
-        if p.has("alpha_u") or p.has("alpha_v"):
-            if p.float("alpha_u", 0.1) != p.float("alpha_v", 0.1):
-                raise p.error("anisotropic roughness (alpha_u != alpha_v) is not supported")
-            alpha = p.float("alpha_u", 0.1, minimum=0.0)
-        else:
-            alpha = p.float("alpha", 0.1, minimum=0.0)
+        alpha = ggx_alpha(p)
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
-        p.raw("specular_reflectance"), p.raw("specular_transmittance"), p.raw("sample_visible")
-        index = n.add_bsdf_roughdielectric(eta, max(alpha, 1e-3))
+        p.raw("specular_reflectance"), p.raw("specular_transmittance")
+        index = n.add_bsdf_roughdielectric(eta, alpha)
+    elif p.type in ("conductor", "roughconductor"):
+        # Named metals need their spectral tables, which Volpath does not carry yet.
+        material = p.str("material", "none")
+        if material != "none":
+            raise p.error(f"named conductor '{material}' is not available: give its 'eta' and 'k' (or 'none')")
+        eta, k = p.rgb("eta", 0.0), p.rgb("k", 0.0)
+        ext = ior(p, "ext_eta", 1.000277) if p.has("ext_eta") else 1.000277
+        alpha = ggx_alpha(p) if p.type == "roughconductor" else 0.0
+        index = n.add_bsdf_conductor(eta / ext, k / ext, reflectance(p, "specular_reflectance", 1.0), alpha, twosided)
     elif p.type in ("roughplastic", "plastic"):
         dist = p.str("distribution", "ggx", ("ggx", "beckmann"))
         if dist != "ggx":
@@ -103,14 +99,31 @@ def build(b, d, twosided=False):
         index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness**2, 1e-3), eta, twosided)
     else:
         raise p.error(
-            "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, roughplastic, "
-            "principled, "
+            "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, conductor, "
+            "roughconductor, roughplastic, principled, "
             "twosided)"
         )
     p.check()
     b.building.discard(id(d))
     b.bsdfs[key] = index
     return index
+
+
+def ggx_alpha(p):
+    """A microfacet BSDF's GGX alpha: isotropic `alpha`, or equal `alpha_u` and `alpha_v`.
+    Mitsuba's default distribution is Beckmann's; GGX stands in for it (close at small
+    roughness, with longer tails), with a warning."""
+    if p.str("distribution", "beckmann", ("ggx", "beckmann")) == "beckmann":
+        warnings.warn(
+            SceneWarning(f"{where(p.loc)}bsdf '{p.type}': the GGX distribution stands in for Beckmann's"),
+            stacklevel=3,
+        )
+    p.raw("sample_visible")
+    if p.has("alpha_u") or p.has("alpha_v"):
+        if p.float("alpha_u", 0.1) != p.float("alpha_v", 0.1):
+            raise p.error("anisotropic roughness (alpha_u != alpha_v) is not supported")
+        return max(p.float("alpha_u", 0.1, minimum=0.0), 1e-3)
+    return max(p.float("alpha", 0.1, minimum=0.0), 1e-3)
 
 
 def reflectance(p, name, default):

@@ -24,6 +24,14 @@ struct DielectricBSDF {
 struct ThinDielectricBSDF {
     Real eta = 1.5046 / 1.000277;
 };
+// A metal: reflection with the Fresnel reflectance of a conductor of complex index
+// eta + i k (relative to the surroundings), per channel, times `specular`; smooth (alpha 0)
+// or rough (GGX). Mitsuba's `conductor` and `roughconductor`.
+struct ConductorBSDF {
+    Spectrum eta{0.0}, k{0.0};  // eta = k = 0: a perfect mirror (Mitsuba's material "none")
+    Spectrum specular{1.0};
+    Real alpha = 0;
+};
 // A diffuse base under a rough dielectric coating with a GGX microfacet distribution
 // (the model of Mitsuba's `roughplastic`, with smooth-Fresnel transmittance through the
 // coating). Blender's Principled BSDF maps onto it.
@@ -42,8 +50,8 @@ struct RoughDielectricBSDF {
     Real alpha = 0.1;  // GGX roughness
 };
 
-using BSDFModel =
-    std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, ThinDielectricBSDF, RoughPlasticBSDF, RoughDielectricBSDF>;
+using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, ThinDielectricBSDF, RoughPlasticBSDF,
+                               RoughDielectricBSDF, ConductorBSDF>;
 
 struct BSDF {
     BSDFModel model;
@@ -59,6 +67,7 @@ struct BSDFSample {
 
 inline bool is_null(const BSDF &b) { return std::holds_alternative<NullBSDF>(b.model); }
 inline bool is_delta(const BSDF &b) {
+    if (const auto *c = std::get_if<ConductorBSDF>(&b.model)) return c->alpha == 0;
     return std::holds_alternative<DielectricBSDF>(b.model) || std::holds_alternative<ThinDielectricBSDF>(b.model);
 }
 
@@ -69,6 +78,10 @@ Spectrum bsdf_albedo(const BSDF &bsdf);
 Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo);
 Real bsdf_pdf(const BSDF &bsdf, Vec3 wi, Vec3 wo);
 bool bsdf_sample(const BSDF &bsdf, Vec3 wi, Real u_lobe, Vec2 u, BSDFSample &out);
+
+// Unpolarised Fresnel reflectance of a conductor of complex index eta + i k, per channel,
+// for a cosine in (0, 1]; 1 where eta = k = 0.
+Spectrum fresnel_conductor(Real cos_theta_i, const Spectrum &eta, const Spectrum &k);
 
 // Unpolarised Fresnel reflectance of a dielectric interface for a cosine on either side
 // (eta = interior / exterior). Sets the signed cosine of the refracted direction.

@@ -19,6 +19,24 @@ Real fresnel_dielectric(Real cos_theta_i, Real eta, Real *cos_theta_t) {
     return 0.5 * (a_s * a_s + a_p * a_p);
 }
 
+Spectrum fresnel_conductor(Real cos_theta_i, const Spectrum &eta, const Spectrum &k) {
+    Spectrum out;
+    const Real c = std::clamp(cos_theta_i, 0.0, 1.0), c2 = c * c, s2 = 1 - c2;
+    for (int i = 0; i < 3; ++i) {
+        if (eta[i] == 0 && k[i] == 0) {
+            out[i] = 1;
+            continue;
+        }
+        // |r_s|^2 and |r_p|^2 with a^2 + b^2 = |eta^2 - sin^2 + ...| (the usual real form).
+        const Real e2 = eta[i] * eta[i], k2 = k[i] * k[i];
+        const Real t0 = e2 - k2 - s2, a2b2 = std::sqrt(t0 * t0 + 4 * e2 * k2), a = safe_sqrt(0.5 * (a2b2 + t0));
+        const Real rs = (a2b2 + c2 - 2 * a * c) / (a2b2 + c2 + 2 * a * c);
+        const Real rp = rs * (a2b2 * c2 + s2 * s2 - 2 * a * c * s2) / (a2b2 * c2 + s2 * s2 + 2 * a * c * s2);
+        out[i] = std::clamp(0.5 * (rs + rp), 0.0, 1.0);
+    }
+    return out;
+}
+
 namespace {
 
 // Fits of the hemispherical average of Fresnel reflectance (d'Eon & Irving 2011).
@@ -97,6 +115,12 @@ struct Eval {
     }
     Spectrum operator()(const DielectricBSDF &) const { return Spectrum(0.0); }
     Spectrum operator()(const ThinDielectricBSDF &) const { return Spectrum(0.0); }
+    Spectrum operator()(const ConductorBSDF &b) const {
+        if (b.alpha == 0 || wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
+        const Vec3 h = normalize(wi + wo);
+        const Real DG = ggx_d(b.alpha, h) * ggx_g1(b.alpha, wi, h) * ggx_g1(b.alpha, wo, h);
+        return b.specular * fresnel_conductor(dot(wi, h), b.eta, b.k) * (DG / (4.0 * wi.z));
+    }
     Spectrum operator()(const DiffuseBSDF &b) const {
         if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
         return b.reflectance * (kInvPi * wo.z);
@@ -131,6 +155,11 @@ struct Pdf {
     }
     Real operator()(const DielectricBSDF &) const { return 0; }
     Real operator()(const ThinDielectricBSDF &) const { return 0; }
+    Real operator()(const ConductorBSDF &b) const {
+        if (b.alpha == 0 || wi.z <= 0 || wo.z <= 0) return 0;
+        const Vec3 h = normalize(wi + wo);
+        return ggx_d(b.alpha, h) * h.z / (4.0 * std::abs(dot(wo, h)));
+    }
     Real operator()(const DiffuseBSDF &) const { return wi.z > 0 ? cosine_hemisphere_pdf(wo.z) : 0.0; }
     Real operator()(const RoughPlasticBSDF &b) const {
         if (wi.z <= 0 || wo.z <= 0) return 0;
@@ -170,6 +199,24 @@ struct Sample {
             out.pdf = 1.0 - r;
             out.weight = Spectrum(eta_ti * eta_ti);
         }
+        return true;
+    }
+    bool operator()(const ConductorBSDF &b) const {
+        if (wi.z <= 0) return false;
+        if (b.alpha == 0) {
+            out.wo = {-wi.x, -wi.y, wi.z};
+            out.pdf = 1;
+            out.delta = true;
+            out.weight = b.specular * fresnel_conductor(wi.z, b.eta, b.k);
+            return true;
+        }
+        const Vec3 h = sample_ggx_normal(b.alpha, u);
+        out.wo = h * (2.0 * dot(wi, h)) - wi;
+        out.delta = false;
+        if (out.wo.z <= 0) return false;
+        out.pdf = Pdf{wi, out.wo}(b);
+        if (!(out.pdf > 0)) return false;
+        out.weight = Eval{wi, out.wo}(b) / out.pdf;
         return true;
     }
     // Each face reflects R; the light that enters bounces between them: R + T^2 R / (1 - R^2)
@@ -246,6 +293,7 @@ Spectrum bsdf_albedo(const BSDF &bsdf) {
         Spectrum operator()(const DiffuseBSDF &b) const { return b.reflectance; }
         Spectrum operator()(const DielectricBSDF &) const { return Spectrum(1.0); }
         Spectrum operator()(const ThinDielectricBSDF &) const { return Spectrum(1.0); }
+        Spectrum operator()(const ConductorBSDF &b) const { return b.specular; }
         Spectrum operator()(const RoughPlasticBSDF &b) const { return b.diffuse; }
         Spectrum operator()(const RoughDielectricBSDF &) const { return Spectrum(1.0); }
     };
