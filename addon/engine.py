@@ -14,8 +14,19 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
     bl_idname = "VOLPATH"
     bl_label = "Volpath"
     bl_use_preview = False
-    # The viewport has no Volpath preview: Material Preview and Rendered shading use EEVEE.
+    # Material Preview uses EEVEE; Rendered shading, Volpath (view_update / view_draw).
     bl_use_eevee_viewport = True
+
+    def view_update(self, context, depsgraph):
+        _viewport_update(self, context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        _viewport_draw(self, context, depsgraph)
+
+    def __del__(self):
+        state = getattr(self, "_viewport", None)
+        if state is not None:
+            state["render"].stop()
 
     def update_render_passes(self, scene=None, renderlayer=None):
         for name, channels, ids, kind in _passes(renderlayer):
@@ -101,6 +112,89 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         if target is not None:
             samples = f"error {100 * stats['error']:.2g} %, {stats['spp_min']}-{stats['spp_max']} spp"
         self.update_stats("", f"Volpath | {samples} | {tracer} | {stats['seconds']:.1f} s")
+
+
+def _viewport_update(engine, context, depsgraph):
+    """Export what the change needs (viewport.py says what) and restart the viewport's
+    rendering; the session lives on the engine, which Blender keeps per viewport."""
+    from . import viewport
+    from .export import drop_meshes, lights
+
+    state = getattr(engine, "_viewport", None)
+    kind, geometry = viewport.classify(depsgraph.updates) if state is not None else ("scene", set())
+    if state is None:
+        state = engine._viewport = {"meshes": {}, "sensor": None, "scene": None, "suns": {}}
+        state["render"] = viewport.ViewportRender(depsgraph.scene.volpath.spp, seed=depsgraph.scene.volpath.seed)
+    if kind == "scene":
+        drop_meshes(state["meshes"], [bpy.data.objects[n] for n in geometry if n in bpy.data.objects])
+        exported = export_scene(depsgraph, state["meshes"])
+        state["scene"], state["suns"] = exported.scene, exported.suns
+        suns = None
+    elif kind == "suns":
+        objects = depsgraph.scene.objects
+        suns = {k: lights.sun_direction(objects[n].evaluated_get(depsgraph)) for k, n in state["suns"].items()}
+    else:
+        return
+    state["sensor"] = _view_sensor(context, depsgraph)
+    state["render"].show(viewport.with_view(state["scene"], state["sensor"], suns))
+
+
+def _view_sensor(context, depsgraph):
+    space, region = context.space_data, context.region
+    return camera.from_view(
+        context.region_data.view_matrix,
+        context.region_data.window_matrix,
+        region.width,
+        region.height,
+        space.clip_start,
+        space.clip_end,
+    )
+
+
+def _viewport_draw(engine, context, depsgraph):
+    """The latest pass as a texture over the region, in the scene's view transform; a new
+    view (orbit, zoom, resize) restarts the rendering first."""
+    import gpu
+    from gpu_extras.presets import draw_texture_2d
+
+    from . import viewport
+
+    state = getattr(engine, "_viewport", None)
+    if state is None or state["scene"] is None:
+        return
+    try:
+        sensor = _view_sensor(context, depsgraph)
+    except ValueError:  # an orthographic view
+        return
+    if not _same_sensor(sensor, state["sensor"]):
+        state["sensor"] = sensor
+        state["render"].show(viewport.with_view(state["scene"], sensor))
+    _, rgba, samples = state["render"].image()
+    if rgba is None:
+        return
+    height, width, _ = rgba.shape
+    pixels = gpu.types.Buffer("FLOAT", width * height * 4, np.ascontiguousarray(rgba[::-1]).ravel())
+    texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=pixels)
+    gpu.state.blend_set("ALPHA_PREMULT")
+    engine.bind_display_space_shader(depsgraph.scene)
+    draw_texture_2d(texture, (0, 0), context.region.width, context.region.height)
+    engine.unbind_display_space_shader()
+    gpu.state.blend_set("NONE")
+    error = state["render"].error
+    engine.update_stats("", f"Volpath | {error}" if error else f"Volpath | {samples} spp")
+    if samples < state["render"].max_samples and not error:
+        engine.tag_redraw()  # draw again while passes come in
+
+
+def _same_sensor(a, b):
+    return (
+        b is not None
+        and a["film"] == b["film"]
+        and a["fov"] == b["fov"]
+        and np.array_equal(a["to_world"], b["to_world"])
+        and a.get("shift_x") == b.get("shift_x")
+        and a.get("shift_y") == b.get("shift_y")
+    )
 
 
 def _passes(layer):

@@ -49,8 +49,10 @@ class Exported:
 _CONVERTIBLE = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
 
-def export_scene(depsgraph):
-    """The evaluated depsgraph (modifiers, instances, the current frame) as a scene."""
+def export_scene(depsgraph, mesh_cache=None):
+    """The evaluated depsgraph (modifiers, instances, the current frame) as a scene.
+    ``mesh_cache``: a dictionary kept between exports (the viewport's) whose meshes'
+    triangles are reused; drop_meshes() forgets those whose geometry changed."""
     scene = depsgraph.scene
     settings = scene.volpath
     report = Report()
@@ -75,7 +77,7 @@ def export_scene(depsgraph):
         # not apply to the world either.
         d["camera"]["far_clip"] = max(d["camera"]["far_clip"], 1e9)
     exterior = {"type": "ref", "id": "air"} if "air" in sky else None
-    meshes_by_data, materials_by_name = {}, {}
+    meshes_by_data, materials_by_name = {} if mesh_cache is None else mesh_cache, {}
 
     def material(m):
         name = m.name if m is not None else None
@@ -132,6 +134,13 @@ def export_volume(depsgraph, name):
     return _volume_shape(
         obj, obj.matrix_world, materials.export(slot, report)[2], depsgraph.scene.volpath, report, None
     )
+
+
+def drop_meshes(mesh_cache, objects):
+    """Forget the cached triangles of these Blender objects (their geometry changed)."""
+    names = {o.name for o in objects} | {o.data.name for o in objects if getattr(o, "data", None) is not None}
+    for key in [k for k in mesh_cache if k[0] in names or k[2] in names]:
+        del mesh_cache[key]
 
 
 def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):

@@ -55,3 +55,28 @@ def export(scene, report):
     if cam.shift_x or cam.shift_y:
         sensor["shift_x"], sensor["shift_y"] = float(cam.shift_x), float(cam.shift_y)
     return sensor
+
+
+def from_view(view_matrix, window_matrix, width, height, clip_start, clip_end, spp=1):
+    """The sensor dictionary for a 3D viewport: its view matrix (world to view) and its
+    perspective projection (OpenGL's, possibly off-centre in camera view) at its size."""
+    P = np.array(window_matrix, dtype=np.float64).reshape(4, 4)
+    if P[3, 3] != 0:
+        raise ValueError("orthographic views are not supported (perspective only)")
+    tan_x, tan_y = 1.0 / P[0, 0], 1.0 / P[1, 1]
+    span = 2 * max(tan_x, tan_y)  # Blender's shift is in fractions of the larger side
+    world_to_view = np.array(view_matrix, dtype=np.float64).reshape(4, 4)
+    sensor = {
+        "type": "perspective",
+        "fov": math.degrees(2 * math.atan(tan_x)),
+        "fov_axis": "x",
+        "near_clip": float(clip_start),
+        "far_clip": float(clip_end),
+        "to_world": convert.matrix(np.linalg.inv(world_to_view)) @ _BLENDER_TO_MITSUBA_CAMERA,
+        "film": {"type": "hdrfilm", "width": int(width), "height": int(height), "rfilter": {"type": "box"}},
+        "sampler": {"type": "independent", "sample_count": int(spp)},
+    }
+    shift_x, shift_y = P[0, 2] * tan_x / span, P[1, 2] * tan_y / span
+    if shift_x or shift_y:
+        sensor["shift_x"], sensor["shift_y"] = float(shift_x), float(shift_y)
+    return sensor
