@@ -265,7 +265,10 @@ PYBIND11_MODULE(_core, m) {
             },
             py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
         .def(
-            "add_bsdf_thindielectric", [](Scene &s, double eta) { return s.add_bsdf({ThinDielectricBSDF{eta}, false}); },
+            "add_bsdf_thindielectric",
+            [](Scene &s, double eta) {
+                return s.add_bsdf({ThinDielectricBSDF{eta}, false});
+            },
             py::arg("eta"))
         .def(
             "add_bsdf_conductor",
