@@ -124,6 +124,7 @@ def _info(args, parser):
                         "rr_depth": scene.rr_depth,
                     },
                     **s,
+                    "memory": scene.memory,
                 },
                 indent=2,
             )
@@ -170,6 +171,11 @@ def _info(args, parser):
     print(f"  emitters  {len(s['emitters'])}")
     for e in s["emitters"]:
         print(f"    {e['type']}")
+    memory = scene.memory
+    print(
+        f"  memory    {memory['total'] / 2**20:.1f} MiB: "
+        + ", ".join(f"{part} {n / 2**20:.1f}" for part, n in memory.items() if part != "total")
+    )
     print(f"  warnings  {len(s['warnings'])}")
     for w in s["warnings"]:
         print(f"    {w}")

@@ -142,6 +142,7 @@ def render(
         threads=threads or os.cpu_count(),
         auto=auto,
         denoised=bool(denoise),
+        memory=scene.memory,
     )
     scene.last_render = stats
     if stats["cancelled"]:

@@ -62,6 +62,16 @@ class Scene:
     def height(self):
         return self.native.height
 
+    @property
+    def memory(self):
+        """Bytes the native scene holds, by part ("shapes", "bvh", "media", "lights"; a
+        spectral mode's passes summed in) and in all ("total")."""
+        parts = dict(self.native.memory)
+        for native in self.passes:
+            for part, n in native.memory.items():
+                parts[part] += n
+        return {**parts, "total": sum(parts.values())}
+
     def __repr__(self):
         return (
             f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "

@@ -446,6 +446,12 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("width", [](const Scene &s) { return s.camera.width; })
         .def_property_readonly("height", [](const Scene &s) { return s.camera.height; })
         .def_property_readonly("light_count", [](const Scene &s) { return s.lights.size(); })
+        .def_property_readonly("memory",
+                               [](const Scene &s) {
+                                   py::dict out;
+                                   for (const auto &[part, n] : s.memory()) out[py::str(part)] = n;
+                                   return out;
+                               })
         .def("__repr__", [](const Scene &s) { return "<volpath._core.Scene: " + s.describe() + ">"; });
 
     m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),

@@ -135,3 +135,36 @@ def test_ctrl_c_stops_the_cli_within_a_second(tmp_path):
     assert time.perf_counter() - sent < 1.0
     assert proc.returncode == 130 and b"interrupted" in err
     assert not (tmp_path / "o.exr").exists()
+
+
+def test_memory_report_counts_what_the_scene_holds():
+    """scene.memory (and scene.last_render["memory"], and `volpath info`): a mesh's
+    vertices and triangles under "shapes", its BVH under "bvh", a grid's stored bricks under
+    "media"."""
+    import volpath
+
+    rng = np.random.default_rng(3)
+    density = rng.uniform(0, 1, (16, 16, 16)).astype(np.float32)
+    grid = volpath.VolumeGrid.from_numpy(density)
+    positions = rng.uniform(-1, 1, (3000, 3))
+    indices = np.arange(3000, dtype=np.uint32).reshape(-1, 3)
+    d = {
+        "type": "scene",
+        "camera": {
+            "type": "perspective",
+            "fov": 40,
+            "to_world": np.eye(4),
+            "film": {"type": "hdrfilm", "width": 8, "height": 8},
+        },
+        "blob": {"type": "mesh", "positions": positions, "indices": indices},
+        "fog": {"type": "heterogeneous", "density": grid},
+        "box": {"type": "cube", "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": "fog"}},
+    }
+    scene = volpath.load_dict(d)
+    memory = scene.memory
+    assert memory["shapes"] >= positions.size * 8 + indices.size * 4
+    assert memory["bvh"] >= 1000 * 9 * 8  # each triangle's three vertices in BVH order
+    assert memory["media"] >= grid.nbytes
+    assert memory["total"] == sum(v for k, v in memory.items() if k != "total")
+    volpath.render(scene, spp=1)
+    assert scene.last_render["memory"] == scene.memory

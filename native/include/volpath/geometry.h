@@ -90,6 +90,10 @@ public:
     bool outside_enclosure(const Ray &ray) const { return enclosure_ != kNoPrim && moves_away_from_enclosure(ray); }
     Bounds bounds() const;
     Bounds shape_bounds(int shape) const;
+    // Bytes held: the shapes as given (meshes' vertices, normals and triangles, spheres,
+    // boxes) and the acceleration structure (BVH nodes, primitives, their vertices).
+    size_t shape_bytes() const;
+    size_t bvh_bytes() const;
 
 private:
     struct Primitive {

@@ -117,6 +117,10 @@ struct Scene {
         return a > b;
     }
     std::string describe() const;
+    // Bytes the scene holds, by part: "shapes", "bvh", "media" (grids, majorants, the air's
+    // tables and sky maps; a grid shared by media counted once) and "lights" (environment
+    // maps).
+    std::vector<std::pair<std::string, size_t>> memory() const;
 };
 
 }  // namespace volpath

@@ -488,4 +488,19 @@ std::optional<bool> Geometry::intersect_from_inside(int shape, const Ray &ray, I
     return true;
 }
 
+template <typename T>
+size_t bytes(const std::vector<T> &v) {
+    return v.capacity() * sizeof(T);
+}
+
+size_t Geometry::shape_bytes() const {
+    size_t n = bytes(meshes) + bytes(spheres) + bytes(boxes) + bytes(shapes);
+    for (const TriangleMesh &m : meshes) n += bytes(m.positions) + bytes(m.normals) + bytes(m.triangles);
+    return n;
+}
+
+size_t Geometry::bvh_bytes() const {
+    return bytes(prims_) + bytes(vertices_) + bytes(kind_) + bytes(nodes_) + bytes(solid_prim_);
+}
+
 }  // namespace volpath

@@ -3,6 +3,7 @@
 #include "volpath/sky_map.h"
 
 #include <algorithm>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -217,6 +218,39 @@ std::string Scene::describe() const {
     s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, " << geometry.boxes.size()
       << " boxes, " << media.size() << " media, " << lights.size() << " lights";
     return s.str();
+}
+
+std::vector<std::pair<std::string, size_t>> Scene::memory() const {
+    auto bytes = [](const auto &v) { return v.capacity() * sizeof(v[0]); };
+    std::set<const VoxelGrid *> grids;
+    size_t media_bytes = 0, light_bytes = 0;
+    auto grid_bytes = [&](const PlacedGrid &g) {
+        if (g.empty() || !grids.insert(g.grid.get()).second) return size_t(0);
+        return bytes(g.grid->data) + bytes(g.grid->brick_index);
+    };
+    for (const Medium &m : media) {
+        if (const auto *g = std::get_if<GridMedium>(&m)) {
+            media_bytes += grid_bytes(g->density) + grid_bytes(g->albedo_grid) + grid_bytes(g->Le_grid);
+            media_bytes += bytes(g->majorants.cells);
+        } else if (const auto *air = std::get_if<AtmosphereMedium>(&m)) {
+            media_bytes += bytes(air->tau_to_top);
+            if (air->sky_map)
+                for (const SkyMap::Level &level : *air->sky_map->levels) {
+                    media_bytes += bytes(level.radiance) + bytes(level.directions.rows) * 2;
+                    for (const Distribution1D &row : level.directions.rows)
+                        media_bytes += bytes(row.func) + bytes(row.cdf);
+                }
+        }
+    }
+    for (const Light &l : lights)
+        if (const auto *env = std::get_if<EnvironmentLight>(&l)) {
+            light_bytes += bytes(env->pixels);
+            for (const Distribution1D &row : env->distribution.rows) light_bytes += bytes(row.func) + bytes(row.cdf);
+        }
+    return {{"shapes", geometry.shape_bytes()},
+            {"bvh", geometry.bvh_bytes()},
+            {"media", media_bytes},
+            {"lights", light_bytes}};
 }
 
 }  // namespace volpath
