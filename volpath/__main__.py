@@ -171,6 +171,10 @@ def _info(args, parser):
     print(f"  emitters  {len(s['emitters'])}")
     for e in s["emitters"]:
         print(f"    {e['type']}")
+    print(f"  bsdfs     {len(s['bsdfs'])}")
+    for b in s["bsdfs"]:
+        named = f" {b['id']!r}" if b["id"] else ""
+        print(f"    {b['type']}{' (two-sided)' if b['twosided'] else ''}{named}")
     memory = scene.memory
     print(
         f"  memory    {memory['total'] / 2**20:.1f} MiB: "

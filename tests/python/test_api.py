@@ -1,6 +1,7 @@
 """The Python API: determinism, cancellation, EXR I/O and the command line."""
 
 import os
+import re
 import subprocess
 import sys
 import time
@@ -99,6 +100,7 @@ def test_cli_render_and_info(tmp_path):
     assert image.shape == (40, 40, 3) and meta["tracer"] == "nee_mis" and meta["spp"] == 2
     r = run_cli("info", str(tmp_path / "s.xml"))
     assert r.returncode == 0 and "homogeneous" in r.stdout and "optical thickness" in r.stdout
+    assert re.search(r"bsdfs +\d+", r.stdout) and re.search(r"memory +[\d.]+ MiB: shapes", r.stdout), r.stdout
     r = run_cli("render", str(tmp_path / "missing.xml"), "-o", str(out))
     assert r.returncode == 2 and "not found" in r.stderr
     r = run_cli("render", str(tmp_path / "s.xml"), "-o", str(out), "--spp", "0")

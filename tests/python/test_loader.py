@@ -311,6 +311,7 @@ def test_roughdielectric_loads_as_mitsuba_and_lajolla_write_it():
     with pytest.warns(volpath.SceneWarning, match="GGX distribution stands in for Beckmann"):
         scene = volpath.load_string(S.scene(S.camera(res=4), glass.format('<float name="alpha" value="0.2"/>')))
     assert np.all(np.isfinite(volpath.render(scene, spp=4)))
+    assert [b["type"] for b in scene.summary["bsdfs"]] == ["roughdielectric"]  # what volpath info lists
     ggx = '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/>'
     assert volpath.load_string(S.scene(S.camera(res=4), glass.format(ggx))).summary["warnings"] == []
     aniso = '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/>'

@@ -100,12 +100,13 @@ def build(b, d, twosided=False):
     else:
         raise p.error(
             "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, conductor, "
-            "roughconductor, roughplastic, principled, "
-            "twosided)"
+            "roughconductor, roughplastic, principled, twosided)"
         )
     p.check()
     b.building.discard(id(d))
     b.bsdfs[key] = index
+    if p.type != "twosided":  # the sided one it wraps is listed
+        b.summary["bsdfs"].append({"type": p.type, "twosided": twosided, "id": d.get("__id__"), "loc": p.loc})
     return index
 
 

@@ -26,7 +26,7 @@ class Builder:
         self.media = {}  # id(dict) -> native index
         self.bsdfs = {}
         self.building = set()
-        self.summary = {"shapes": [], "media": [], "emitters": [], "camera": None, "warnings": []}
+        self.summary = {"shapes": [], "media": [], "emitters": [], "bsdfs": [], "camera": None, "warnings": []}
         self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []  # (native medium index, centre, top radius)
