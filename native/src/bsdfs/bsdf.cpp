@@ -175,6 +175,14 @@ struct Sample {
     Real u_lobe;
     Vec2 u;
     BSDFSample &out;
+    // A non-delta sample's density and weight, from the model's own pdf and eval.
+    template <typename Model>
+    bool finish(const Model &b) const {
+        out.pdf = Pdf{wi, out.wo}(b);
+        if (!(out.pdf > 0)) return false;
+        out.weight = Eval{wi, out.wo}(b) / out.pdf;
+        return true;
+    }
     bool operator()(const NullBSDF &) const { return false; }
     bool operator()(const DiffuseBSDF &b) const {
         if (wi.z <= 0) return false;
@@ -214,10 +222,7 @@ struct Sample {
         out.wo = h * (2.0 * dot(wi, h)) - wi;
         out.delta = false;
         if (out.wo.z <= 0) return false;
-        out.pdf = Pdf{wi, out.wo}(b);
-        if (!(out.pdf > 0)) return false;
-        out.weight = Eval{wi, out.wo}(b) / out.pdf;
-        return true;
+        return finish(b);
     }
     // Each face reflects R; the light that enters bounces between them: R + T^2 R / (1 - R^2)
     // = 2 R / (1 + R) in all, the rest passes through unbent.
@@ -254,10 +259,7 @@ struct Sample {
         // density there is that lobe's alone.
         if ((out.wo.z * wi.z > 0) != reflect) return false;
         out.delta = false;
-        out.pdf = Pdf{wi, out.wo}(b);
-        if (!(out.pdf > 0)) return false;
-        out.weight = Eval{wi, out.wo}(b) / out.pdf;
-        return true;
+        return finish(b);
     }
     bool operator()(const RoughPlasticBSDF &b) const {
         if (wi.z <= 0) return false;
@@ -270,10 +272,7 @@ struct Sample {
         }
         out.delta = false;
         if (out.wo.z <= 0) return false;
-        out.pdf = Pdf{wi, out.wo}(b);
-        if (!(out.pdf > 0)) return false;
-        out.weight = Eval{wi, out.wo}(b) / out.pdf;
-        return true;
+        return finish(b);
     }
 };
 
