@@ -92,7 +92,7 @@ BLENDER_EXT = $$($(PY) -c "import importlib.util, os; print(os.path.join(importl
 extension: wheel
 	rm -rf wheels && mkdir -p wheels
 	cp dist/volpath-*.whl wheels/
-	$(PIP) download -q --only-binary :all: --no-deps -d wheels $$(grep -E '^(OpenEXR|tqdm|imageio-ffmpeg|pyoidn|cffi|pycparser)==' requirements.txt)
+	$(PIP) download -q --only-binary :all: --no-deps -d wheels $$(grep -E '^(OpenEXR|tqdm|pillow|imageio-ffmpeg|pyoidn|cffi|pycparser)==' requirements.txt)
 	$(PY) $(BLENDER_EXT) validate .
 	$(PY) $(BLENDER_EXT) build --source-dir . --output-dir dist --split-platforms
 	@ls -la dist/*.zip

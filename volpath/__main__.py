@@ -175,6 +175,16 @@ def _info(args, parser):
     for b in s["bsdfs"]:
         named = f" {b['id']!r}" if b["id"] else ""
         print(f"    {b['type']}{' (two-sided)' if b['twosided'] else ''}{named}")
+    print(f"  textures  {len(s['textures'])}")
+    for t in s["textures"]:
+        named = f" {t['id']!r}" if t["id"] else ""
+        if t["type"] == "bitmap":
+            source = t["filename"] or "texels in the dictionary"
+            w, h = t["size"]
+            encoding = "sRGB" if t["srgb"] else "linear"
+            print(f"    bitmap{named} {source}: {w}x{h}, {t['channels']} channel(s), {t['texel']} {encoding}")
+        else:
+            print(f"    {t['type']}{named}")
     memory = scene.memory
     print(
         f"  memory    {memory['total'] / 2**20:.1f} MiB: "

@@ -1,14 +1,22 @@
 """Triangle meshes from Wavefront OBJ and PLY (ASCII and binary) files, as numpy arrays."""
 
 import os
+from typing import NamedTuple
 
 import numpy as np
 
 from .errors import SceneError
 
 
+class Mesh(NamedTuple):
+    positions: np.ndarray  # (n, 3) float64
+    triangles: np.ndarray  # (m, 3) uint32
+    normals: np.ndarray | None = None  # (n, 3)
+    uvs: np.ndarray | None = None  # (n, 2): texture coordinates, v = 0 at an image's top row
+
+
 def load_mesh(path):
-    """Return (positions (n,3) float64, triangles (m,3) uint32, normals (n,3) or None)."""
+    """A Mesh from an OBJ or PLY file."""
     if not os.path.exists(path):
         raise SceneError(f"{path}: mesh file not found")
     ext = os.path.splitext(path)[1].lower()
@@ -19,7 +27,7 @@ def load_mesh(path):
     raise SceneError(f"{path}: unknown mesh format '{ext}' (expected .obj or .ply)")
 
 
-def _check(path, positions, triangles, normals):
+def _check(path, positions, triangles, normals, uvs=None):
     n = len(positions)
     if n == 0 or len(triangles) == 0:
         raise SceneError(f"{path}: the mesh has no triangles")
@@ -29,13 +37,16 @@ def _check(path, positions, triangles, normals):
         raise SceneError(f"{path}: vertex positions must be finite")
     if normals is not None and (len(normals) != n or not np.all(np.isfinite(normals))):
         normals = None
-    return positions.astype(np.float64), triangles.astype(np.uint32), normals
+    if uvs is not None and (len(uvs) != n or not np.all(np.isfinite(uvs))):
+        raise SceneError(f"{path}: texture coordinates must be finite, one pair per vertex")
+    return Mesh(positions.astype(np.float64), triangles.astype(np.uint32), normals, uvs)
 
 
 def load_obj(path):
-    """OBJ: v, vn and f (polygons fan-triangulated; negative indices allowed)."""
-    v, vn, corners, faces = [], [], {}, []
-    out_pos, out_nrm = [], []
+    """OBJ: v, vt, vn and f (polygons fan-triangulated; negative indices allowed). As in
+    Mitsuba, v is flipped (OBJ puts v = 0 at an image's bottom row)."""
+    v, vt, vn, corners, faces = [], [], [], {}, []
+    out_pos, out_uv, out_nrm = [], [], []
     with open(path, encoding="utf-8", errors="replace") as f:
         for line_no, line in enumerate(f, 1):
             parts = line.split()
@@ -44,24 +55,24 @@ def load_obj(path):
             try:
                 if parts[0] == "v":
                     v.append([float(x) for x in parts[1:4]])
+                elif parts[0] == "vt":
+                    vt.append([float(parts[1]), 1.0 - float(parts[2]) if len(parts) > 2 else 1.0])
                 elif parts[0] == "vn":
                     vn.append([float(x) for x in parts[1:4]])
                 elif parts[0] == "f":
                     idx = []
                     for c in parts[1:]:
                         fields = c.split("/")
-                        pi = int(fields[0])
-                        pi = pi - 1 if pi > 0 else len(v) + pi
-                        ni = -1
-                        if len(fields) >= 3 and fields[2]:
-                            ni = int(fields[2])
-                            ni = ni - 1 if ni > 0 else len(vn) + ni
-                        if not (0 <= pi < len(v)) or ni >= len(vn):
+                        pi = _obj_index(fields, 0, len(v))
+                        ti = _obj_index(fields, 1, len(vt))
+                        ni = _obj_index(fields, 2, len(vn))
+                        if not (0 <= pi < len(v)) or ti >= len(vt) or ni >= len(vn):
                             raise SceneError(f"{path}:{line_no}: face refers to a missing vertex")
-                        key = (pi, ni)
+                        key = (pi, ti, ni)
                         if key not in corners:
                             corners[key] = len(out_pos)
                             out_pos.append(v[pi])
+                            out_uv.append(vt[ti] if ti >= 0 else None)
                             out_nrm.append(vn[ni] if ni >= 0 else None)
                         idx.append(corners[key])
                     if len(idx) < 3:
@@ -70,10 +81,20 @@ def load_obj(path):
             except (ValueError, IndexError):
                 raise SceneError(f"{path}:{line_no}: malformed '{parts[0]}' line (expected numbers)") from None
     positions = np.array(out_pos, dtype=np.float64).reshape(-1, 3)
-    normals = None
+    normals = uvs = None
     if out_nrm and all(n is not None for n in out_nrm):
         normals = np.array(out_nrm, dtype=np.float64)
-    return _check(path, positions, np.array(faces, dtype=np.int64).reshape(-1, 3), normals)
+    if out_uv and all(t is not None for t in out_uv):
+        uvs = np.array(out_uv, dtype=np.float64)
+    return _check(path, positions, np.array(faces, dtype=np.int64).reshape(-1, 3), normals, uvs)
+
+
+def _obj_index(fields, i, count):
+    """The 0-based index in field i of an OBJ face corner (v/vt/vn), or -1 if absent."""
+    if len(fields) <= i or not fields[i]:
+        return -1
+    k = int(fields[i])
+    return k - 1 if k > 0 else count + k
 
 
 _PLY_TYPES = {
@@ -127,7 +148,7 @@ def load_ply(path):
         for name, t, a, b in el["props"]:
             if t is None or (t == "list" and (a is None or b is None)):
                 raise SceneError(f"{path}: unknown type of property '{name}'")
-    positions = normals = faces = None
+    positions = normals = uvs = faces = None
     if fmt == "ascii":
         tokens = data[body_start:].split()
         pos = 0
@@ -146,9 +167,8 @@ def load_ply(path):
                         pos += 1
                 rows.append(row)
             if el["name"] == "vertex":
-                positions = np.array([[r["x"], r["y"], r["z"]] for r in rows])
-                if rows and "nx" in rows[0]:
-                    normals = np.array([[r["nx"], r["ny"], r["nz"]] for r in rows])
+                scalars = [name for name, t, _a, _b in el["props"] if t != "list"]
+                positions, normals, uvs = _vertex_arrays(path, {k: np.array([r[k] for r in rows]) for k in scalars})
             elif el["name"] == "face":
                 faces = [r.get("vertex_indices", r.get("vertex_index")) for r in rows]
     else:
@@ -161,16 +181,32 @@ def load_ply(path):
                 arr = np.frombuffer(buf, dtype=dt, count=el["count"], offset=pos)
                 pos += dt.itemsize * el["count"]
                 if el["name"] == "vertex":
-                    positions = np.stack([arr["x"], arr["y"], arr["z"]], axis=1).astype(np.float64)
-                    if "nx" in arr.dtype.names:
-                        normals = np.stack([arr["nx"], arr["ny"], arr["nz"]], axis=1).astype(np.float64)
+                    positions, normals, uvs = _vertex_arrays(path, {k: arr[k] for k in arr.dtype.names})
             else:
                 lists, pos = _binary_lists(buf, pos, el, order)
                 if el["name"] == "face":
                     faces = lists.get("vertex_indices", lists.get("vertex_index"))
     if positions is None or faces is None:
         raise SceneError(f"{path}: PLY file needs 'vertex' and 'face' elements")
-    return _check(path, positions, _fan(faces), normals)
+    return _check(path, positions, _fan(faces), normals, uvs)
+
+
+# The names PLY writers give texture coordinates (Blender, Mitsuba, MeshLab).
+_PLY_UV_NAMES = (("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t"))
+
+
+def _vertex_arrays(path, columns):
+    """(positions, normals or None, uvs or None) from a PLY vertex element's columns."""
+    if not {"x", "y", "z"} <= columns.keys():
+        raise SceneError(f"{path}: the PLY vertex element needs properties x, y and z")
+
+    def stack(*names):
+        return np.stack([columns[n] for n in names], axis=1).astype(np.float64)
+
+    positions = stack("x", "y", "z")
+    normals = stack("nx", "ny", "nz") if "nx" in columns else None
+    uvs = next((stack(u, v) for u, v in _PLY_UV_NAMES if u in columns and v in columns), None)
+    return positions, normals, uvs
 
 
 def _fan(faces):
@@ -220,7 +256,7 @@ def _binary_lists(buf, pos, el, order):
     return lists, pos
 
 
-def write_ply(path, positions, triangles, normals=None):
+def write_ply(path, positions, triangles, normals=None, uvs=None):
     """Binary little-endian PLY (what the exporter writes)."""
     positions = np.asarray(positions, np.float32)
     triangles = np.asarray(triangles, np.uint32)
@@ -236,11 +272,16 @@ def write_ply(path, positions, triangles, normals=None):
     if normals is not None:
         header += ["property float nx", "property float ny", "property float nz"]
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
+    if uvs is not None:
+        header += ["property float u", "property float v"]
+        fields += [("u", "<f4"), ("v", "<f4")]
     header += [f"element face {len(triangles)}", "property list uchar uint vertex_indices", "end_header"]
     verts = np.empty(len(positions), dtype=fields)
     verts["x"], verts["y"], verts["z"] = positions.T
     if normals is not None:
         verts["nx"], verts["ny"], verts["nz"] = np.asarray(normals, np.float32).T
+    if uvs is not None:
+        verts["u"], verts["v"] = np.asarray(uvs, np.float32).T
     faces = np.empty(len(triangles), dtype=[("n", "u1"), ("i", "<u4", 3)])
     faces["n"], faces["i"] = 3, triangles
     with open(path, "wb") as f:

@@ -1,11 +1,12 @@
-"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY and its grids as
-.vdb files (copies of the files they were read from, else written sparse; see
-write_volume for the grids that stay a dense .vol).
+"""A scene dictionary back to Mitsuba-style XML, with its meshes as PLY, its textures'
+texels as PNG (8-bit) or EXR, and its grids as .vdb files (copies of the files they were
+read from, else written sparse; see write_volume for the grids that stay a dense .vol).
 
 The inverse of xml_reader.py for what the Blender exporter produces: ``write_scene(d,
-directory)`` writes ``scene.xml`` next to ``meshes/`` and ``volumes/`` so that
-``volpath.load_file`` gives the same native scene as ``volpath.load_dict(d)`` (floats are
-written with ``repr``, which round-trips exactly; meshes and grids are float32 either way).
+directory)`` writes ``scene.xml`` next to ``meshes/``, ``textures/`` and ``volumes/`` so
+that ``volpath.load_file`` gives the same native scene as ``volpath.load_dict(d)`` (floats
+are written with ``repr``, which round-trips exactly; meshes and grids are float32 either
+way, texels keep their bits).
 """
 
 import os
@@ -16,6 +17,7 @@ import numpy as np
 
 from . import vdb
 from .grids import write_vol
+from .images import write_image
 from .meshes import write_ply
 from .plugins import kind_of
 from .volume import VolumeGrid
@@ -131,8 +133,14 @@ class _Writer:
         d = dict(d)
         if d["type"] == "mesh":  # arrays become a PLY file
             rel = self.asset("meshes", key, "ply")
-            write_ply(os.path.join(self.directory, rel), d.pop("positions"), d.pop("indices"), d.pop("normals", None))
+            arrays = d.pop("positions"), d.pop("indices"), d.pop("normals", None), d.pop("uvs", None)
+            write_ply(os.path.join(self.directory, rel), *arrays)
             d["type"], d["filename"] = "ply", rel
+        elif d["type"] == "bitmap" and "data" in d:  # texels become a PNG (8-bit) or an EXR
+            texels = np.asarray(d.pop("data"))
+            rel = self.asset("textures", key, "png" if texels.dtype == np.uint8 else "exr")
+            write_image(os.path.join(self.directory, rel), texels if texels.ndim == 3 else texels[..., None])
+            d["filename"] = rel
         elif d["type"] == "gridvolume" and "data" in d:
             rel = self.asset("volumes", key, "vol")
             write_vol(os.path.join(self.directory, rel), d.pop("data"))

@@ -24,6 +24,18 @@ inline Transform transform(const py::array_t<double, py::array::c_style | py::ar
     return t;
 }
 
+// A 3x3 affine matrix of texture coordinates (its last row 0 0 1); none: the identity.
+inline UVTransform uv_transform(
+    const std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> &to_uv) {
+    if (!to_uv) return {};
+    const auto &m = *to_uv;
+    if (m.ndim() != 2 || m.shape(0) != 3 || m.shape(1) != 3) throw std::invalid_argument("to_uv must be a 3x3 matrix");
+    UVTransform t;
+    for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 3; ++j) t.m[i][j] = m.at(i, j);
+    return t;
+}
+
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 

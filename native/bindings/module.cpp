@@ -260,8 +260,7 @@ PYBIND11_MODULE(_core, m) {
         .def(
             "add_bsdf_roughplastic",
             [](Scene &s, Array3 diffuse, Array3 specular, double alpha, double eta, bool twosided) {
-                return s.add_bsdf(
-                    {RoughPlasticBSDF{vec(diffuse), vec(specular), std::max(alpha, 1e-4), eta}, twosided});
+                return s.add_bsdf({rough_plastic(vec(diffuse), vec(specular), std::max(alpha, 1e-4), eta), twosided});
             },
             py::arg("diffuse"), py::arg("specular"), py::arg("alpha"), py::arg("eta"), py::arg("twosided") = false)
         .def(
@@ -282,6 +281,70 @@ PYBIND11_MODULE(_core, m) {
                 return s.add_bsdf({RoughDielectricBSDF{eta, std::max(alpha, 1e-4)}, false});
             },
             py::arg("eta"), py::arg("alpha"))
+        .def(
+            "add_texture_bitmap",
+            [](Scene &s, const py::array &texels, bool srgb, bool bilinear, const std::string &wrap,
+               const std::optional<DoubleArray> &to_uv) {
+                BitmapTexture t;
+                if (texels.ndim() != 3 || (texels.shape(2) != 1 && texels.shape(2) != 3) || texels.shape(0) < 1 ||
+                    texels.shape(1) < 1)
+                    throw std::invalid_argument("texels must have shape (height, width, 1 or 3)");
+                t.height = int(texels.shape(0)), t.width = int(texels.shape(1)), t.channels = int(texels.shape(2));
+                if (py::isinstance<py::array_t<uint8_t>>(texels)) {
+                    const auto a = py::array_t<uint8_t, py::array::c_style | py::array::forcecast>::ensure(texels);
+                    t.bytes.assign(a.data(), a.data() + a.size());
+                } else {
+                    const auto a = FloatArray::ensure(texels);
+                    if (!a) throw std::invalid_argument("texels must be uint8 or float");
+                    t.floats.assign(a.data(), a.data() + a.size());
+                    for (float v : t.floats)
+                        if (!std::isfinite(v)) throw std::invalid_argument("texels must be finite");
+                }
+                t.srgb = srgb, t.bilinear = bilinear;
+                if (wrap == "repeat")
+                    t.wrap = BitmapTexture::Wrap::Repeat;
+                else if (wrap == "mirror")
+                    t.wrap = BitmapTexture::Wrap::Mirror;
+                else if (wrap == "clamp")
+                    t.wrap = BitmapTexture::Wrap::Clamp;
+                else
+                    throw std::invalid_argument("wrap must be 'repeat', 'mirror' or 'clamp'");
+                t.to_uv = uv_transform(to_uv);
+                return s.add_texture(std::move(t));
+            },
+            py::arg("texels"), py::arg("srgb"), py::arg("bilinear") = true, py::arg("wrap") = "repeat",
+            py::arg("to_uv") = py::none(),
+            "An image texture from texels (height, width, channels): uint8 (sRGB-encoded if srgb) or float (linear).")
+        .def(
+            "add_texture_checkerboard",
+            [](Scene &s, Array3 color0, Array3 color1, const std::optional<DoubleArray> &to_uv) {
+                return s.add_texture(CheckerboardTexture{vec(color0), vec(color1), uv_transform(to_uv)});
+            },
+            py::arg("color0"), py::arg("color1"), py::arg("to_uv") = py::none())
+        .def(
+            "bind_texture",
+            [](Scene &s, int bsdf, const std::string &name, int texture, const DoubleArray &scale, Array3 offset,
+               bool squared) {
+                TexturedParam p;
+                if (name == "reflectance")
+                    p.name = TexturedParam::Name::Reflectance;
+                else if (name == "specular")
+                    p.name = TexturedParam::Name::Specular;
+                else if (name == "alpha")
+                    p.name = TexturedParam::Name::Alpha;
+                else
+                    throw std::invalid_argument("name must be 'reflectance', 'specular' or 'alpha'");
+                if (scale.ndim() != 2 || scale.shape(0) != 3 || scale.shape(1) != 3)
+                    throw std::invalid_argument("scale must be a 3x3 matrix");
+                p.texture = texture;
+                for (int i = 0; i < 3; ++i)
+                    for (int j = 0; j < 3; ++j) p.scale[i][j] = scale.at(i, j);
+                p.offset = vec(offset);
+                p.squared = squared;
+                s.bind_texture(bsdf, p);
+            },
+            py::arg("bsdf"), py::arg("name"), py::arg("texture"), py::arg("scale"), py::arg("offset"),
+            py::arg("squared") = false, "Makes a BSDF parameter offset + scale @ texture(uv) (squared if asked).")
         .def(
             "add_medium_homogeneous",
             [](Scene &s, Array3 sigma_a, Array3 sigma_s, double g, Array3 Le) {
@@ -314,10 +377,16 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions,
                const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
-               std::optional<Array3> radiance) {
+               std::optional<Array3> radiance, std::optional<DoubleArray> uvs) {
                 TriangleMesh mesh;
                 mesh.positions = points(positions, "positions");
                 if (normals) mesh.normals = points(*normals, "normals");
+                if (uvs) {
+                    if (uvs->ndim() != 2 || uvs->shape(1) != 2 || uvs->shape(0) != positions.shape(0))
+                        throw std::invalid_argument("uvs must have shape (n, 2), one per position");
+                    mesh.uvs.resize(size_t(uvs->shape(0)));
+                    for (size_t i = 0; i < mesh.uvs.size(); ++i) mesh.uvs[i] = {uvs->at(i, 0), uvs->at(i, 1)};
+                }
                 if (triangles.ndim() != 2 || triangles.shape(1) != 3)
                     throw std::invalid_argument("triangles must have shape (n, 3)");
                 mesh.triangles.resize(size_t(triangles.shape(0)));
@@ -328,7 +397,8 @@ PYBIND11_MODULE(_core, m) {
                                         radiance ? &Le : nullptr);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
-            py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none())
+            py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
+            py::arg("uvs") = py::none())
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,

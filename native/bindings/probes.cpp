@@ -367,6 +367,32 @@ void bind_probes(py::module_ &m) {
         }
         return out;
     });
+    // The texture coordinates where each ray hits, (n, 2); NaN where it misses.
+    m.def("surface_uv", [](Scene &s, const DoubleArray &origins, const DoubleArray &dirs) {
+        const std::vector<Vec3> os = points(origins, "origins"), ds = points(dirs, "directions");
+        if (os.size() != ds.size()) throw std::invalid_argument("origins and directions differ in number");
+        py::array_t<double> out({os.size(), size_t(2)});
+        auto o = out.mutable_unchecked<2>();
+        for (size_t i = 0; i < os.size(); ++i) {
+            Intersection its;
+            const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its);
+            o(i, 0) = hit ? its.uv.x : std::nan("");
+            o(i, 1) = hit ? its.uv.y : std::nan("");
+        }
+        return out;
+    });
+    // A texture's (linear) value at each (u, v), (n, 3).
+    m.def("texture_eval", [](Scene &s, int texture, const DoubleArray &uvs) {
+        if (uvs.ndim() != 2 || uvs.shape(1) != 2) throw std::invalid_argument("uvs must have shape (n, 2)");
+        const size_t n = size_t(uvs.shape(0));
+        py::array_t<double> out({n, size_t(3)});
+        auto o = out.mutable_unchecked<2>();
+        for (size_t i = 0; i < n; ++i) {
+            const Spectrum v = eval_texture(s.textures.at(size_t(texture)), {uvs.at(i, 0), uvs.at(i, 1)});
+            o(i, 0) = v.x, o(i, 1) = v.y, o(i, 2) = v.z;
+        }
+        return out;
+    });
     m.def("bsdf_sample", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &u) {
         const size_t n = size_t(u.shape(0));
         py::array_t<double> dirs({n, size_t(3)}), pdfs(n);

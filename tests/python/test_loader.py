@@ -125,7 +125,7 @@ def _ply(path, order, faces, extra_face_prop=False):
 def test_binary_ply_faces_fan_triangulated(tmp_path, order, faces, extra):
     # One structured read when every face has one size, a row-by-row walk otherwise:
     # both fan-triangulate each polygon in order and skip the face's other properties.
-    _, triangles, _ = load_mesh(str(_ply(tmp_path / "m.ply", order, faces, extra)))
+    triangles = load_mesh(str(_ply(tmp_path / "m.ply", order, faces, extra))).triangles
     expected = [[f[0], f[i], f[i + 1]] for f in faces for i in range(1, len(f) - 1)]
     assert triangles.tolist() == expected
 

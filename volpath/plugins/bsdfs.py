@@ -5,7 +5,11 @@ import warnings
 import numpy as np
 
 from ..errors import SceneError, SceneWarning, where
-from . import kind_of
+from . import kind_of, textures
+from .textures import Textured, value
+
+# Stand-ins for textured colours in the native BSDF as created (every hit replaces them).
+GREY, WHITE = (0.5, 0.5, 0.5), (1.0, 1.0, 1.0)
 
 # Named indices of refraction (Mitsuba's table, the common entries).
 IOR = {
@@ -44,16 +48,19 @@ def build(b, d, twosided=False):
     elif p.type == "null":
         index = n.add_bsdf_null()
     elif p.type == "diffuse":
-        index = n.add_bsdf_diffuse(reflectance(p, "reflectance", 0.5), twosided)
+        r = textures.param(b, p, "reflectance", 0.5)
+        index = n.add_bsdf_diffuse(value(r, GREY), twosided)
+        textures.bind(b, index, reflectance=r)
     elif p.type in ("dielectric", "thindielectric"):
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
         p.raw("specular_reflectance"), p.raw("specular_transmittance")
         index = n.add_bsdf_dielectric(eta) if p.type == "dielectric" else n.add_bsdf_thindielectric(eta)
     elif p.type == "roughdielectric":
-        alpha = ggx_alpha(p)
+        alpha = ggx_alpha(b, p)
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
         p.raw("specular_reflectance"), p.raw("specular_transmittance")
-        index = n.add_bsdf_roughdielectric(eta, alpha)
+        index = n.add_bsdf_roughdielectric(eta, value(alpha, 0.1))
+        textures.bind(b, index, alpha=alpha)
     elif p.type in ("conductor", "roughconductor"):
         # Named metals need their spectral tables, which Volpath does not carry yet.
         material = p.str("material", "none")
@@ -61,27 +68,26 @@ def build(b, d, twosided=False):
             raise p.error(f"named conductor '{material}' is not available: give its 'eta' and 'k' (or 'none')")
         eta, k = p.rgb("eta", 0.0), p.rgb("k", 0.0)
         ext = ior(p, "ext_eta", 1.000277) if p.has("ext_eta") else 1.000277
-        alpha = ggx_alpha(p) if p.type == "roughconductor" else 0.0
-        index = n.add_bsdf_conductor(eta / ext, k / ext, reflectance(p, "specular_reflectance", 1.0), alpha, twosided)
+        alpha = ggx_alpha(b, p) if p.type == "roughconductor" else 0.0
+        specular = textures.param(b, p, "specular_reflectance", 1.0)
+        index = n.add_bsdf_conductor(eta / ext, k / ext, value(specular, WHITE), value(alpha, 0.1), twosided)
+        textures.bind(b, index, specular=specular, alpha=alpha)
     elif p.type in ("roughplastic", "plastic"):
         dist = p.str("distribution", "ggx", ("ggx", "beckmann"))
         if dist != "ggx":
             raise p.error("only the 'ggx' distribution is supported")
-        alpha = p.float("alpha", 0.1 if p.type == "roughplastic" else 0.001, minimum=0.0)
+        alpha = roughness(b, p, "alpha", 0.1 if p.type == "roughplastic" else 0.001)
         eta = ior(p, "int_ior", 1.49) / ior(p, "ext_ior", 1.000277)
         p.raw("nonlinear"), p.raw("sample_visible")
-        index = n.add_bsdf_roughplastic(
-            reflectance(p, "diffuse_reflectance", 0.5),
-            reflectance(p, "specular_reflectance", 1.0),
-            max(alpha, 1e-3),
-            eta,
-            twosided,
-        )
+        diffuse = textures.param(b, p, "diffuse_reflectance", 0.5)
+        specular = textures.param(b, p, "specular_reflectance", 1.0)
+        index = n.add_bsdf_roughplastic(value(diffuse, GREY), value(specular, WHITE), value(alpha, 0.1), eta, twosided)
+        textures.bind(b, index, reflectance=diffuse, specular=specular, alpha=alpha)
     elif p.type == "principled":
         # Mapped onto the rough plastic: base colour under a GGX coat; metals tint the coat.
-        base = reflectance(p, "base_color", 0.5)
+        base = textures.param(b, p, "base_color", 0.5)
         metallic = p.float("metallic", 0.0, minimum=0.0)
-        roughness = p.float("roughness", 0.5, minimum=0.0)
+        rough = textures.param(b, p, "roughness", 0.5)
         eta = p.float("eta", 1.5, positive=True)
         for ignored in (
             "specular",
@@ -95,8 +101,16 @@ def build(b, d, twosided=False):
             "flatness",
         ):
             p.raw(ignored)
-        specular = (1 - metallic) * np.ones(3) + metallic * base
-        index = n.add_bsdf_roughplastic(base * (1 - metallic), specular, max(roughness**2, 1e-3), eta, twosided)
+        if isinstance(base, Textured):
+            diffuse, specular = base._replace(scale=1 - metallic), base._replace(scale=metallic, offset=1 - metallic)
+        else:
+            diffuse, specular = base * (1 - metallic), (1 - metallic) * np.ones(3) + metallic * base
+        if isinstance(rough, Textured):  # alpha = roughness^2, as for a constant
+            alpha = rough._replace(squared=True)
+        else:
+            alpha = max(float(rough[0]) ** 2, 1e-3)
+        index = n.add_bsdf_roughplastic(value(diffuse, GREY), value(specular, WHITE), value(alpha, 0.1), eta, twosided)
+        textures.bind(b, index, reflectance=diffuse, specular=specular, alpha=alpha)
     else:
         raise p.error(
             "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, conductor, "
@@ -110,10 +124,10 @@ def build(b, d, twosided=False):
     return index
 
 
-def ggx_alpha(p):
-    """A microfacet BSDF's GGX alpha: isotropic `alpha`, or equal `alpha_u` and `alpha_v`.
-    Mitsuba's default distribution is Beckmann's; GGX stands in for it (close at small
-    roughness, with longer tails), with a warning."""
+def ggx_alpha(b, p):
+    """A microfacet BSDF's GGX alpha (a float or a Textured): isotropic `alpha`, or equal
+    `alpha_u` and `alpha_v`. Mitsuba's default distribution is Beckmann's; GGX stands in
+    for it (close at small roughness, with longer tails), with a warning."""
     if p.str("distribution", "beckmann", ("ggx", "beckmann")) == "beckmann":
         warnings.warn(
             SceneWarning(f"{where(p.loc)}bsdf '{p.type}': the GGX distribution stands in for Beckmann's"),
@@ -123,15 +137,16 @@ def ggx_alpha(p):
     if p.has("alpha_u") or p.has("alpha_v"):
         if p.float("alpha_u", 0.1) != p.float("alpha_v", 0.1):
             raise p.error("anisotropic roughness (alpha_u != alpha_v) is not supported")
-        return max(p.float("alpha_u", 0.1, minimum=0.0), 1e-3)
-    return max(p.float("alpha", 0.1, minimum=0.0), 1e-3)
+        return roughness(b, p, "alpha_u", 0.1)
+    return roughness(b, p, "alpha", 0.1)
 
 
-def reflectance(p, name, default):
+def roughness(b, p, name, default):
+    """A GGX alpha: a float, at least 1e-3, or a Textured."""
     v = p.raw(name, default)
-    if isinstance(v, dict) and kind_of(v) == "texture":
-        raise p.error(f"textures are not supported for '{name}' (give an rgb)")
-    return p.rgb(name, default)
+    if isinstance(v, dict) and kind_of(b.resolve(v)) == "texture":
+        return Textured(textures.build(b, v))
+    return max(p.float(name, default, minimum=0.0), 1e-3)
 
 
 def ior(p, name, default):

@@ -25,8 +25,17 @@ class Builder:
         self._index_ids(d)
         self.media = {}  # id(dict) -> native index
         self.bsdfs = {}
+        self.textures = {}  # id(dict) -> native index
         self.building = set()
-        self.summary = {"shapes": [], "media": [], "emitters": [], "bsdfs": [], "camera": None, "warnings": []}
+        self.summary = {
+            "shapes": [],
+            "media": [],
+            "emitters": [],
+            "bsdfs": [],
+            "textures": [],
+            "camera": None,
+            "warnings": [],
+        }
         self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []  # (native medium index, centre, top radius)

@@ -3,7 +3,7 @@ numpy arrays in a dictionary), with their BSDF, area emitter and medium interfac
 
 import numpy as np
 
-from ..meshes import load_mesh
+from ..meshes import Mesh, load_mesh
 from . import bsdfs, kind_of
 
 
@@ -80,18 +80,17 @@ def build(b, d):
         bounds = np.array([corners.min(axis=0), corners.max(axis=0)])
         b.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type, "loc": p.loc})
     else:
-        normals = None
         if p.type == "rectangle":
-            positions, triangles = rectangle()
+            positions, triangles, normals, uvs = rectangle()
         elif p.type == "cube":
-            positions, triangles = cube()
+            positions, triangles, normals, uvs = cube()
         elif p.type in ("obj", "ply"):
             path = b.path(p, "filename")
-            positions, triangles, normals = load_mesh(path)
+            positions, triangles, normals, uvs = load_mesh(path)
             if p.bool("face_normals", False):
                 normals = None
         elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
-            positions, triangles, normals = mesh_arrays(p)
+            positions, triangles, normals, uvs = mesh_arrays(p)
         else:
             raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh)")
         positions = transform_points(to_world, positions)
@@ -101,7 +100,7 @@ def build(b, d):
             triangles = triangles[:, ::-1].copy()
             if normals is not None:
                 normals = -normals
-        b.native.add_mesh(positions, triangles, normals, **common)
+        b.native.add_mesh(positions, triangles, normals, uvs=uvs, **common)
         bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
         b.summary["shapes"].append(
             {
@@ -122,7 +121,7 @@ def build(b, d):
 def mesh_arrays(p):
     positions = np.asarray(p.raw("positions"), dtype=np.float64)
     triangles = np.asarray(p.raw("indices"), dtype=np.int64)
-    normals = p.raw("normals")
+    normals, uvs = p.raw("normals"), p.raw("uvs")
     if positions.ndim != 2 or positions.shape[1] != 3 or not np.all(np.isfinite(positions)):
         raise p.error("'positions' must be a finite (n, 3) array")
     if (
@@ -135,7 +134,11 @@ def mesh_arrays(p):
         normals = np.asarray(normals, dtype=np.float64)
         if normals.shape != positions.shape or not np.all(np.isfinite(normals)):
             raise p.error("'normals' must be a finite array shaped like 'positions'")
-    return positions, triangles.astype(np.uint32), normals
+    if uvs is not None:
+        uvs = np.asarray(uvs, dtype=np.float64)
+        if uvs.shape != (len(positions), 2) or not np.all(np.isfinite(uvs)):
+            raise p.error("'uvs' must be a finite (n, 2) array, one pair per position")
+    return Mesh(positions, triangles.astype(np.uint32), normals, uvs)
 
 
 def transform_points(m, p):
@@ -150,23 +153,37 @@ def transform_normals(m, n):
 
 def rectangle():
     p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], dtype=np.float64)
-    return p, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
+    return Mesh(p, np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32), None, (p[:, :2] + 1) / 2)
+
+
+# Texture coordinates on the cube's faces, as Mitsuba's cube mesh has them: per axis and
+# side (+, -), u's and v's axis and sign (the analytic box's in geometry.cpp).
+_CUBE_UV = {
+    (0, 1): (1, 1, 2, -1),
+    (0, -1): (1, 1, 2, 1),
+    (1, 1): (0, -1, 2, -1),
+    (1, -1): (2, 1, 0, 1),
+    (2, 1): (1, 1, 0, 1),
+    (2, -1): (1, -1, 0, 1),
+}
 
 
 def cube():
-    positions, triangles = [], []
+    positions, triangles, uvs = [], [], []
     for axis in range(3):
         for sign in (-1.0, 1.0):
             u, v = [(axis + 1) % 3, (axis + 2) % 3]
             base = len(positions)
+            ua, us, va, vs = _CUBE_UV[axis, int(sign)]
             for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
                 p = [0.0, 0.0, 0.0]
                 p[axis], p[u], p[v] = sign, a, b
                 positions.append(p)
+                uvs.append([(1 + us * p[ua]) / 2, (1 + vs * p[va]) / 2])
             # counter-clockwise seen from outside
             triangles += (
                 [[base, base + 1, base + 2], [base, base + 2, base + 3]]
                 if sign > 0
                 else [[base, base + 2, base + 1], [base, base + 3, base + 2]]
             )
-    return np.array(positions), np.array(triangles, dtype=np.uint32)
+    return Mesh(np.array(positions), np.array(triangles, dtype=np.uint32), None, np.array(uvs))

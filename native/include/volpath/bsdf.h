@@ -4,8 +4,10 @@
 #pragma once
 
 #include <variant>
+#include <vector>
 
 #include "math.h"
+#include "texture.h"
 
 namespace volpath {
 
@@ -40,7 +42,11 @@ struct RoughPlasticBSDF {
     Spectrum specular{1.0};
     Real alpha = 0.1;  // GGX roughness (Blender roughness squared)
     Real eta = 1.49;
+    // The coating's Fresnel reflectance averaged over the hemisphere outside (set by
+    // rough_plastic): what the base's inter-reflections under the coating come to.
+    Real fdr_exterior = 0.0920;
 };
+RoughPlasticBSDF rough_plastic(const Spectrum &diffuse, const Spectrum &specular, Real alpha, Real eta);
 
 // A rough dielectric interface (Walter et al. 2007) with a GGX distribution: reflection
 // and refraction off microfacets, in proportion to their Fresnel reflectance (Mitsuba's and
@@ -53,10 +59,30 @@ struct RoughDielectricBSDF {
 using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, ThinDielectricBSDF, RoughPlasticBSDF,
                                RoughDielectricBSDF, ConductorBSDF>;
 
+// A BSDF parameter given by a texture: offset + scale * texture(uv), with `scale` a 3x3
+// matrix (diagonal in RGB; in a spectral pass it takes the texture's RGB to the pass's
+// wavelengths), squared where a roughness is given as Blender's and Mitsuba's principled
+// give it (alpha = roughness^2). A roughness takes the first channel.
+struct TexturedParam {
+    enum class Name : uint8_t { Reflectance, Specular, Alpha } name = Name::Reflectance;
+    int texture = -1;  // into Scene::textures
+    Real scale[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    Spectrum offset{0.0};
+    bool squared = false;
+};
+
 struct BSDF {
     BSDFModel model;
     bool twosided = false;
+    std::vector<TexturedParam> textured;  // the parameters that vary over the surface
 };
+
+// Whether `model` has the parameter (diffuse and rough plastic have a reflectance, rough
+// plastic and conductors a specular tint, the microfacet models an alpha).
+bool has_param(const BSDFModel &model, TexturedParam::Name name);
+// The BSDF at a surface point: `bsdf` itself if nothing in it is textured, else `local`,
+// set to its model with the textured parameters looked up at uv.
+const BSDF &bsdf_at(const BSDF &bsdf, const std::vector<Texture> &textures, Vec2 uv, BSDF &local);
 
 struct BSDFSample {
     Vec3 wo;
@@ -82,6 +108,10 @@ bool bsdf_sample(const BSDF &bsdf, Vec3 wi, Real u_lobe, Vec2 u, BSDFSample &out
 // Unpolarised Fresnel reflectance of a conductor of complex index eta + i k, per channel,
 // for a cosine in (0, 1]; 1 where eta = k = 0.
 Spectrum fresnel_conductor(Real cos_theta_i, const Spectrum &eta, const Spectrum &k);
+
+// Fresnel reflectance of a dielectric interface averaged over a cosine-weighted hemisphere
+// on the side that sees relative index eta, by quadrature.
+Real fresnel_diffuse_reflectance(Real eta);
 
 // Unpolarised Fresnel reflectance of a dielectric interface for a cosine on either side
 // (eta = interior / exterior). Sets the signed cosine of the refracted direction.

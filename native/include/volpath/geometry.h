@@ -16,6 +16,7 @@ namespace volpath {
 struct TriangleMesh {
     std::vector<Vec3> positions;
     std::vector<Vec3> normals;  // per vertex, optional (smooth shading)
+    std::vector<Vec2> uvs;      // per vertex, optional (texture coordinates)
     std::vector<std::array<uint32_t, 3>> triangles;
     Real area(size_t i) const;
 };
@@ -55,6 +56,10 @@ struct Intersection {
     Vec3 p;
     Vec3 n;   // geometric normal, unit, on the shape's front side
     Vec3 ns;  // shading normal, on the same side as n
+    // Texture coordinates: a mesh's, interpolated (its barycentrics where it has none, as
+    // in Mitsuba); a sphere's longitude / (2 pi) and polar angle / pi; a box face's as on
+    // Mitsuba's cube.
+    Vec2 uv;
     int shape = -1;
     uint32_t prim = 0;
 };

@@ -39,6 +39,7 @@ struct Scene {
     Geometry geometry;
     std::vector<ShapeInfo> shapes;
     std::vector<BSDF> bsdfs;
+    std::vector<Texture> textures;
     std::vector<Medium> media;
     std::vector<Light> lights;
     std::vector<int> infinite_lights;  // indices into lights
@@ -56,6 +57,9 @@ struct Scene {
 
     int add_bsdf(const BSDF &b);
     int add_medium(const Medium &m);
+    int add_texture(Texture t);
+    // Makes one of the BSDF's parameters vary as `param` says (its texture added before).
+    void bind_texture(int bsdf, const TexturedParam &param);
     int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
     int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
@@ -118,8 +122,8 @@ struct Scene {
     }
     std::string describe() const;
     // Bytes the scene holds, by part: "shapes", "bvh", "media" (grids, majorants, the air's
-    // tables and sky maps; a grid shared by media counted once) and "lights" (environment
-    // maps).
+    // tables and sky maps; a grid shared by media counted once), "lights" (environment
+    // maps) and "textures".
     std::vector<std::pair<std::string, size_t>> memory() const;
 };
 

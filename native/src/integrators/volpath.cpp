@@ -774,7 +774,8 @@ Step Path::at_surface(const Intersection &its) {
         add_emission(area.radiance, shape.light,
                      light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
-    const BSDF &bsdf = scene.bsdfs[shape.bsdf];
+    BSDF textured;
+    const BSDF &bsdf = bsdf_at(scene.bsdfs[shape.bsdf], scene.textures, its.uv, textured);
     if (is_null(bsdf)) {
         if (++null_crossings > kMaxNullCrossings) return Step::Ended;
         medium = medium_after_crossing(shape, ray.d, its.n, medium);

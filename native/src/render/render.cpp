@@ -43,9 +43,10 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
         if (!scene.intersect(ray, its)) break;
         const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
         if (shape.light >= 0) return {Spectrum(1.0), Vec3(0.0), true, its.p};
+        BSDF textured;
         if (shape.bsdf >= 0 && !is_null(scene.bsdfs[size_t(shape.bsdf)]))
-            return {bsdf_albedo(scene.bsdfs[size_t(shape.bsdf)]), dot(its.ns, ray.d) > 0 ? -its.ns : its.ns, true,
-                    its.p};
+            return {bsdf_albedo(bsdf_at(scene.bsdfs[size_t(shape.bsdf)], scene.textures, its.uv, textured)),
+                    dot(its.ns, ray.d) > 0 ? -its.ns : its.ns, true, its.p};
         ray = spawn_ray(its.p, its.n, ray.d);
     }
     return {};

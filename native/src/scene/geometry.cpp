@@ -412,11 +412,19 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         if (std::abs(q.z) > std::abs(q[a])) a = 2;
         const Vec3 &n = box.normals[a];
         its.n = its.ns = (q[a] < 0) != box.flip_normals ? -n : n;
+        // Each face maps [-1, 1]^2 onto [0, 1]^2, turned as in Mitsuba's cube mesh:
+        // per axis and side (+, -), u's and v's axis and sign.
+        static constexpr int kFaceUV[3][2][4] = {
+            {{1, 1, 2, -1}, {1, 1, 2, 1}}, {{0, -1, 2, -1}, {2, 1, 0, 1}}, {{1, 1, 0, 1}, {1, -1, 0, 1}}};
+        const int *f = kFaceUV[a][q[a] < 0];
+        its.uv = {(1 + f[1] * q[f[0]]) * 0.5, (1 + f[3] * q[f[2]]) * 0.5};
     } else if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
         const Vec3 n = normalize(ray.at(hit.t) - sp.center);
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
         its.n = its.ns = sp.flip_normals ? -n : n;
+        const Real phi = std::atan2(n.y, n.x);
+        its.uv = {(phi < 0 ? phi + 2 * kPi : phi) / (2 * kPi), std::acos(std::clamp(n.z, Real(-1), Real(1))) / kPi};
     } else {
         const TriangleMesh &m = meshes[s.index];
         const auto &tri = m.triangles[prim.index];
@@ -428,6 +436,12 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
             const Vec3 ns = m.normals[tri[0]] * hit.b0 + m.normals[tri[1]] * hit.b1 + m.normals[tri[2]] * hit.b2;
             const Real len = length(ns);
             if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
+        }
+        if (m.uvs.empty()) {
+            its.uv = {hit.b1, hit.b2};
+        } else {
+            const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
+            its.uv = {t0.x * hit.b0 + t1.x * hit.b1 + t2.x * hit.b2, t0.y * hit.b0 + t1.y * hit.b1 + t2.y * hit.b2};
         }
     }
     its.shape = prim.shape;
@@ -495,7 +509,7 @@ size_t bytes(const std::vector<T> &v) {
 
 size_t Geometry::shape_bytes() const {
     size_t n = bytes(meshes) + bytes(spheres) + bytes(boxes) + bytes(shapes);
-    for (const TriangleMesh &m : meshes) n += bytes(m.positions) + bytes(m.normals) + bytes(m.triangles);
+    for (const TriangleMesh &m : meshes) n += bytes(m.positions) + bytes(m.normals) + bytes(m.uvs) + bytes(m.triangles);
     return n;
 }
 

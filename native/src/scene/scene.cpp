@@ -14,6 +14,20 @@ int Scene::add_bsdf(const BSDF &b) {
     return int(bsdfs.size()) - 1;
 }
 
+int Scene::add_texture(Texture t) {
+    textures.push_back(std::move(t));
+    return int(textures.size()) - 1;
+}
+
+void Scene::bind_texture(int bsdf, const TexturedParam &param) {
+    if (bsdf < 0 || size_t(bsdf) >= bsdfs.size()) throw std::invalid_argument("bsdf index out of range");
+    if (param.texture < 0 || size_t(param.texture) >= textures.size())
+        throw std::invalid_argument("texture index out of range");
+    if (!has_param(bsdfs[size_t(bsdf)].model, param.name))
+        throw std::invalid_argument("this bsdf has no such parameter to texture");
+    bsdfs[size_t(bsdf)].textured.push_back(param);
+}
+
 int Scene::add_medium(const Medium &m) {
     media.push_back(m);
     prepare_medium(media.back());
@@ -247,10 +261,13 @@ std::vector<std::pair<std::string, size_t>> Scene::memory() const {
             light_bytes += bytes(env->pixels);
             for (const Distribution1D &row : env->distribution.rows) light_bytes += bytes(row.func) + bytes(row.cdf);
         }
+    size_t texture_bytes_total = 0;
+    for (const Texture &t : textures) texture_bytes_total += texture_bytes(t);
     return {{"shapes", geometry.shape_bytes()},
             {"bvh", geometry.bvh_bytes()},
             {"media", media_bytes},
-            {"lights", light_bytes}};
+            {"lights", light_bytes},
+            {"textures", texture_bytes_total}};
 }
 
 }  // namespace volpath
