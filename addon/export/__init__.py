@@ -80,11 +80,13 @@ def export_scene(depsgraph, mesh_cache=None):
     meshes_by_data, materials_by_name = {} if mesh_cache is None else mesh_cache, {}
 
     def material(m):
+        """(Material, the medium inside) of a material slot, exported once."""
         name = m.name if m is not None else None
         if name not in materials_by_name:
-            bsdf, radiance, medium = materials.export(m, report)
+            mat = materials.export(m, report)
+            medium = mat.medium
             interior = materials.homogeneous(medium, report, f"material '{name}'") if medium is not None else None
-            materials_by_name[name] = bsdf, radiance, medium, interior
+            materials_by_name[name] = mat, interior
         return materials_by_name[name]
 
     def add(name, entry):
@@ -103,11 +105,11 @@ def export_scene(depsgraph, mesh_cache=None):
                 if entry["type"] == "sun":
                     suns[k] = obj.original.name
         elif obj.type in _CONVERTIBLE:
-            for name, shape in _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
+            for name, shape in _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
                 add(name, shape)
         elif obj.type == "VOLUME":
             slot = obj.material_slots[0].material if obj.material_slots else None
-            entry = _volume_shape(obj, inst.matrix_world, material(slot)[2], settings, report, exterior)
+            entry = _volume_shape(obj, inst.matrix_world, material(slot)[0].medium, settings, report, exterior)
             if entry is not None:
                 k = add(obj.name, entry)
                 if obj.data.is_sequence:
@@ -132,7 +134,7 @@ def export_volume(depsgraph, name):
     slot = obj.material_slots[0].material if obj.material_slots else None
     report = Report()
     return _volume_shape(
-        obj, obj.matrix_world, materials.export(slot, report)[2], depsgraph.scene.volpath, report, None
+        obj, obj.matrix_world, materials.export(slot, report).medium, depsgraph.scene.volpath, report, None
     )
 
 
@@ -143,28 +145,38 @@ def drop_meshes(mesh_cache, objects):
         del mesh_cache[key]
 
 
-def _mesh_shapes(obj, inst, meshes_by_data, material, exterior):
+def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
     """(name, shape) per material slot of one mesh instance; the triangle arrays of a mesh
     datablock are computed once and shared by its instances (unless modifiers differ)."""
+    slots = [s.material for s in obj.material_slots]
+    uv_maps = {material(m)[0].uv_map for m in slots} - {None}
+    uv_map = min(uv_maps) if uv_maps else None
+    if len(uv_maps) > 1:
+        shown = uv_map or "the render one"
+        report.warn(f"object '{obj.name}': its materials read different UV maps; all read '{shown}'")
     data = obj.data.original if obj.data is not None else obj.original
     key = (
         data.name,
         data.library.name if getattr(data, "library", None) else None,
         obj.original.name if obj.modifiers else "",
+        uv_map,
     )
     if key not in meshes_by_data:
-        meshes_by_data[key] = meshes.triangles(obj)
+        meshes_by_data[key] = meshes.triangles(obj, uv_map)
     parts = meshes_by_data[key]
-    slots = [s.material for s in obj.material_slots]
     to_world = convert.matrix(inst.matrix_world)
-    for index, (positions, indices, normals) in parts.items():
+    for index, (positions, indices, normals, uvs) in parts.items():
         m = slots[index] if index < len(slots) else None
-        bsdf, radiance, _, interior = material(m)
-        shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": bsdf}
+        mat, interior = material(m)
+        if mat.uv_map is not None and uvs is None:
+            report.warn(f"object '{obj.name}': no UV map '{mat.uv_map}' for its textures; they read (0, 0)")
+        shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": mat.bsdf}
         if normals is not None:
             shape["normals"] = normals
-        if radiance is not None:
-            shape["emitter"] = {"type": "area", "radiance": convert.rgb(radiance)}
+        if uvs is not None:
+            shape["uvs"] = uvs
+        if mat.radiance is not None:
+            shape["emitter"] = {"type": "area", "radiance": convert.rgb(mat.radiance)}
         if interior is not None:
             shape["interior"] = interior
             if exterior is not None:

@@ -9,24 +9,44 @@ What maps (in Blender's radiometry, as Cycles renders it; lights.py gives the li
                        emission E (per unit length) -> Le = E / sigma_a; blackbody -> Le = intensity x
                        Planck radiance at the temperature (times the temperature grid, for volumes)
   Volume Scatter    -> sigma_s = density colour;  Volume Absorption -> sigma_a = density (1 - colour)
-Everything else (textures plugged into inputs, other nodes) is reported as
-a warning and replaced by the input's default value, never ignored silently.
+Textures (textures.py): Image Texture nodes, through UV Map and Mapping nodes, on the Base
+Color and Roughness of a Principled BSDF and the Color of a Diffuse BSDF.
+Everything else (other nodes plugged into inputs, other shaders) is reported as a warning
+and replaced by the input's default value, never ignored silently.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from . import convert
+from . import convert, textures
 
 DEFAULT_SURFACE = {"type": "diffuse", "reflectance": convert.rgb((0.8, 0.8, 0.8))}
 
 
-class _Inputs:
-    """A node's unlinked input values, reporting inputs driven by links."""
+class Material(NamedTuple):
+    bsdf: dict
+    radiance: object  # emitted radiance (rgb) or None
+    medium: dict | None  # the volume's description (sigma_a, sigma_s, g, ...)
+    uv_map: str | None  # the UV map its textures read ("" for the render one), None if none
 
-    def __init__(self, node, owner, report):
+
+class _Inputs:
+    """A node's input values, reporting inputs driven by links that are not supported."""
+
+    def __init__(self, node, owner, report, images=None):
         self.node, self.owner, self.report = node, owner, report
+        self.images = images
+
+    def texture(self, name):
+        """The bitmap an input is linked to (a scene dictionary), or its value."""
+        socket = self.node.inputs[name]
+        if self.images is not None and socket.is_linked:
+            bitmap = self.images.bitmap(socket.links[0], f"'{name}' of '{self.node.name}'")
+            if bitmap is not None:
+                return bitmap
+        return self(name)
 
     def __call__(self, name):
         socket = self.node.inputs[name]
@@ -58,28 +78,34 @@ def _linked(output, socket):
 
 
 def export(material, report):
-    """(bsdf dict, emitted radiance rgb or None, medium dict or None) for a material slot."""
+    """The Material of a material slot."""
     if material is None:
-        return DEFAULT_SURFACE, None, None
+        return Material(DEFAULT_SURFACE, None, None, None)
     owner = f"material '{material.name}'"
     output = _output(material)
     if output is None:
-        return {"type": "diffuse", "reflectance": convert.rgb(material.diffuse_color[:3])}, None, None
+        return Material({"type": "diffuse", "reflectance": convert.rgb(material.diffuse_color[:3])}, None, None, None)
     surface = _linked(output, "Surface")
     volume = _linked(output, "Volume")
     medium = _volume(volume, owner, report) if volume is not None else None
+    images = textures.Images(owner, report)
     if surface is None:
         bsdf, radiance = (
             ({"type": "null"} if medium is not None else {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}),
             None,
         )
     else:
-        bsdf, radiance = _surface(surface, owner, report)
-    return bsdf, radiance, medium
+        bsdf, radiance = _surface(surface, owner, report, images)
+    return Material(bsdf, radiance, medium, images.uv_map)
 
 
-def _surface(node, owner, report):
-    get = _Inputs(node, owner, report)
+def _colour(v):
+    """A colour input's value for the scene: a bitmap as it is, an RGB clamped to [0, 1]."""
+    return v if isinstance(v, dict) else convert.rgb(np.clip(v, 0, 1))
+
+
+def _surface(node, owner, report, images):
+    get = _Inputs(node, owner, report, images)
     kind = node.bl_idname
     if kind == "ShaderNodeBsdfPrincipled":
         emission = get("Emission Color") * get("Emission Strength")
@@ -89,22 +115,23 @@ def _surface(node, owner, report):
                 report.warn(f"{owner}: '{name}' is not supported (ignored)")
         if get("Transmission Weight") >= 0.5:
             return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, radiance
-        base, metallic = np.clip(get("Base Color"), 0, 1), float(np.clip(get("Metallic"), 0, 1))
+        base, metallic = get.texture("Base Color"), float(np.clip(get("Metallic"), 0, 1))
         # Specular IOR Level scales the coat's normal-incidence reflectance F0 (0.5: as the IOR says).
         ior = max(get("IOR"), 1.0)
         f0 = ((ior - 1) / (ior + 1)) ** 2 * 2 * max(get("Specular IOR Level"), 0.0)
         if f0 < 1e-4 and metallic == 0:
-            return {"type": "diffuse", "reflectance": convert.rgb(base)}, radiance
+            return {"type": "diffuse", "reflectance": _colour(base)}, radiance
         eta = (1 + math.sqrt(min(f0, 0.9))) / (1 - math.sqrt(min(f0, 0.9)))
+        rough = get.texture("Roughness")
         return {
             "type": "principled",
-            "base_color": convert.rgb(base),
+            "base_color": _colour(base),
             "metallic": metallic,
-            "roughness": float(np.clip(get("Roughness"), 0, 1)),
+            "roughness": rough if isinstance(rough, dict) else float(np.clip(rough, 0, 1)),
             "eta": max(eta, 1.0001),
         }, radiance
     if kind == "ShaderNodeBsdfDiffuse":
-        return {"type": "diffuse", "reflectance": convert.rgb(np.clip(get("Color"), 0, 1))}, None
+        return {"type": "diffuse", "reflectance": _colour(get.texture("Color"))}, None
     if kind == "ShaderNodeBsdfGlass":
         return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, None
     if kind == "ShaderNodeEmission":
