@@ -282,6 +282,40 @@ PYBIND11_MODULE(_core, m) {
             },
             py::arg("eta"), py::arg("alpha"))
         .def(
+            "add_bsdf_blend",
+            [](Scene &s, int a, int b, double weight) {
+                BSDF bsdf;
+                bsdf.layer = BlendLayer{a, b, std::clamp(weight, 0.0, 1.0)};
+                return s.add_bsdf(bsdf);
+            },
+            py::arg("a"), py::arg("b"), py::arg("weight"), "(1 - weight) a + weight b (blendbsdf).")
+        .def(
+            "add_bsdf_mask",
+            [](Scene &s, int nested, double opacity) {
+                BSDF bsdf;
+                bsdf.layer = MaskLayer{nested, std::clamp(opacity, 0.0, 1.0)};
+                return s.add_bsdf(bsdf);
+            },
+            py::arg("nested"), py::arg("opacity"), "The nested BSDF where opaque, else straight through (mask).")
+        .def(
+            "add_bsdf_normalmap",
+            [](Scene &s, int nested, int texture, double strength) {
+                BSDF bsdf;
+                bsdf.layer = NormalMapLayer{nested, texture, strength};
+                return s.add_bsdf(bsdf);
+            },
+            py::arg("nested"), py::arg("texture"), py::arg("strength") = 1.0,
+            "The nested BSDF about normals from a tangent-space normal map (a raw texture).")
+        .def(
+            "add_bsdf_bumpmap",
+            [](Scene &s, int nested, int texture, double scale, double strength) {
+                BSDF bsdf;
+                bsdf.layer = BumpMapLayer{nested, texture, scale, strength};
+                return s.add_bsdf(bsdf);
+            },
+            py::arg("nested"), py::arg("texture"), py::arg("scale") = 1.0, py::arg("strength") = 1.0,
+            "The nested BSDF on the surface displaced by scale * texture(uv) along its normal.")
+        .def(
             "add_texture_bitmap",
             [](Scene &s, const py::array &texels, bool srgb, bool bilinear, const std::string &wrap,
                const std::optional<DoubleArray> &to_uv) {
@@ -332,8 +366,13 @@ PYBIND11_MODULE(_core, m) {
                     p.name = TexturedParam::Name::Specular;
                 else if (name == "alpha")
                     p.name = TexturedParam::Name::Alpha;
+                else if (name == "weight")
+                    p.name = TexturedParam::Name::Weight;
+                else if (name == "opacity")
+                    p.name = TexturedParam::Name::Opacity;
                 else
-                    throw std::invalid_argument("name must be 'reflectance', 'specular' or 'alpha'");
+                    throw std::invalid_argument(
+                        "name must be 'reflectance', 'specular', 'alpha', 'weight' or 'opacity'");
                 if (scale.ndim() != 2 || scale.shape(0) != 3 || scale.shape(1) != 3)
                     throw std::invalid_argument("scale must be a 3x3 matrix");
                 p.texture = texture;

@@ -1,5 +1,6 @@
 // The tests' probes into the core's parts: the samplers, media, lights and BSDFs on their
 // own, for chi-square tests, oracles and the accuracy study.
+#include <functional>
 #include <limits>
 
 #include "convert.h"
@@ -406,6 +407,42 @@ void bind_probes(py::module_ &m) {
             p(i) = ok ? bs.pdf : 0.0;
         }
         return py::make_tuple(dirs, pdfs);
+    });
+    // A blend's or mask's samples on a flat surface (z up) at uv: per row of u (layer choice,
+    // lobe, 2D), the direction, the weight (f |cos wo| / pdf, 0 where the sampler fails) and
+    // whether the ray passed through the mask (then the direction is -wi).
+    m.def("surface_sample", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &u, std::array<double, 2> uv) {
+        const std::function<bool(int)> has_map = [&](int b) {
+            const Layer &layer = s.bsdfs.at(size_t(b)).layer;
+            if (std::holds_alternative<NormalMapLayer>(layer) || std::holds_alternative<BumpMapLayer>(layer))
+                return true;
+            if (const auto *blend = std::get_if<BlendLayer>(&layer)) return has_map(blend->a) || has_map(blend->b);
+            if (const auto *mask = std::get_if<MaskLayer>(&layer)) return has_map(mask->nested);
+            return false;
+        };
+        if (has_map(bsdf)) throw std::invalid_argument("surface_sample takes blends and masks, not maps");
+        Intersection its;
+        its.n = its.ns = Vec3(0, 0, 1);
+        its.uv = {uv[0], uv[1]};
+        const Vec3 w = normalize(vec(wi));
+        const size_t n = size_t(u.shape(0));
+        py::array_t<double> dirs({n, size_t(3)}), weights({n, size_t(3)});
+        py::array_t<bool> passed(n);
+        auto d = dirs.mutable_unchecked<2>();
+        auto o = weights.mutable_unchecked<2>();
+        auto p = passed.mutable_unchecked<1>();
+        for (size_t i = 0; i < n; ++i) {
+            SurfacePoint surface;
+            surface_at(s, bsdf, its, u.at(i, 0), surface);
+            BSDFSample bs;
+            p(i) = surface.bsdf == nullptr;
+            if (p(i)) bs.wo = -w, bs.weight = Spectrum(1.0);
+            const bool ok = p(i) || bsdf_sample(*surface.bsdf, w, u.at(i, 1), {u.at(i, 2), u.at(i, 3)}, bs);
+            const Spectrum weight = ok ? bs.weight : Spectrum(0.0);
+            d(i, 0) = bs.wo.x, d(i, 1) = bs.wo.y, d(i, 2) = bs.wo.z;
+            o(i, 0) = weight.x, o(i, 1) = weight.y, o(i, 2) = weight.z;
+        }
+        return py::make_tuple(dirs, weights, passed);
     });
     m.def("bsdf_pdf", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &wos) {
         const std::vector<Vec3> ds = points(wos, "directions");

@@ -45,6 +45,8 @@ def build(b, d, twosided=False):
             raise p.error("expected exactly one nested bsdf")
         p.read.add(inner[0])
         index = build(b, d[inner[0]], twosided=True)
+    elif p.type in LAYERS:
+        index = _layer(b, d, p, twosided)
     elif p.type == "null":
         index = n.add_bsdf_null()
     elif p.type == "diffuse":
@@ -114,7 +116,7 @@ def build(b, d, twosided=False):
     else:
         raise p.error(
             "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, conductor, "
-            "roughconductor, roughplastic, principled, twosided)"
+            "roughconductor, plastic, roughplastic, principled, twosided, blendbsdf, mask, normalmap, bumpmap)"
         )
     p.check()
     b.building.discard(id(d))
@@ -122,6 +124,54 @@ def build(b, d, twosided=False):
     if p.type != "twosided":  # the sided one it wraps is listed
         b.summary["bsdfs"].append({"type": p.type, "twosided": twosided, "id": d.get("__id__"), "loc": p.loc})
     return index
+
+
+LAYERS = ("blendbsdf", "mask", "normalmap", "bumpmap")
+
+
+def _layer(b, d, p, twosided):
+    """A BSDF made of nested ones (built first, with the same sidedness): blendbsdf (two,
+    weight 0 gives the first), mask (one, an opacity), normalmap and bumpmap (one, and a
+    texture: `normalmap`'s tangent-space normals, raw; bumpmap's heights times `scale`)."""
+    nested = [k for k, v in d.items() if isinstance(v, dict) and kind_of(b.resolve(v)) == "bsdf"]
+    expected = 2 if p.type == "blendbsdf" else 1
+    if len(nested) != expected:
+        raise p.error(f"expected exactly {expected} nested bsdf{'s' if expected > 1 else ''}, found {len(nested)}")
+    for k in nested:
+        p.read.add(k)
+    inner = [build(b, d[k], twosided) for k in nested]
+    n = b.native
+    if p.type == "blendbsdf":
+        weight = _unit_param(b, p, "weight", 0.5)
+        index = n.add_bsdf_blend(inner[0], inner[1], value(weight, 0.5))
+        textures.bind(b, index, weight=weight)
+    elif p.type == "mask":
+        opacity = _unit_param(b, p, "opacity", 0.5)
+        index = n.add_bsdf_mask(inner[0], value(opacity, 0.5))
+        textures.bind(b, index, opacity=opacity)
+    else:
+        name = "normalmap" if p.type == "normalmap" else None
+        found = [k for k, v in d.items() if isinstance(v, dict) and kind_of(b.resolve(v)) == "texture"]
+        if name is not None and name not in found:
+            raise p.error("expected a texture named 'normalmap'")
+        if name is None and len(found) != 1:
+            raise p.error(f"expected exactly one nested texture (the heights), found {len(found)}")
+        key = name or found[0]
+        p.read.add(key)
+        texture = textures.build(b, d[key])
+        if p.type == "normalmap":
+            index = n.add_bsdf_normalmap(inner[0], texture, p.float("strength", 1.0, minimum=0.0))
+        else:
+            index = n.add_bsdf_bumpmap(inner[0], texture, p.float("scale", 1.0), p.float("strength", 1.0, minimum=0.0))
+    return index
+
+
+def _unit_param(b, p, name, default):
+    """A weight or opacity: a float in [0, 1], or a Textured (its channels' mean)."""
+    v = p.raw(name, default)
+    if isinstance(v, dict) and kind_of(b.resolve(v)) == "texture":
+        return Textured(textures.build(b, v))
+    return p.float(name, default, minimum=0.0, maximum=1.0)
 
 
 def ggx_alpha(b, p):

@@ -33,7 +33,7 @@ class Params:
         self.read.add(name)
         return self.d.get(name, default)
 
-    def float(self, name, default=None, positive=False, minimum=None):
+    def float(self, name, default=None, positive=False, minimum=None, maximum=None):
         v = self.raw(name, default)
         if v is None:
             raise self.error(f"missing float '{name}'")
@@ -48,6 +48,8 @@ class Params:
             raise self.error(f"'{name}' must be positive, got {v}")
         if minimum is not None and v < minimum:
             raise self.error(f"'{name}' must be at least {minimum}, got {v}")
+        if maximum is not None and v > maximum:
+            raise self.error(f"'{name}' must be at most {maximum}, got {v}")
         return v
 
     def int(self, name, default=None):

@@ -135,13 +135,13 @@ def value(v, default):
 
 def bind(b, bsdf, **params):
     """Binds each Textured among the named native parameters (reflectance, specular,
-    alpha) of the native BSDF ``bsdf``."""
+    alpha, weight, opacity) of the native BSDF ``bsdf``."""
     for name, v in params.items():
         if not isinstance(v, Textured):
             continue
         scale = np.broadcast_to(np.asarray(v.scale, dtype=np.float64), (3,))
         offset = np.broadcast_to(np.asarray(v.offset, dtype=np.float64), (3,))
-        if name == "alpha":  # a roughness: the mean of the texture's channels
+        if name in ("alpha", "weight", "opacity"):  # one number: the mean of the texture's channels
             m = np.tile(scale / 3, (3, 1))
         else:
             m = np.diag(scale)

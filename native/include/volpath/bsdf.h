@@ -59,12 +59,40 @@ struct RoughDielectricBSDF {
 using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, ThinDielectricBSDF, RoughPlasticBSDF,
                                RoughDielectricBSDF, ConductorBSDF>;
 
+// Surfaces made of other BSDFs (indices into Scene::bsdfs), resolved at each hit into one
+// leaf BSDF and a shading normal (Scene's surface_at).
+// blendbsdf: (1 - weight) a + weight b, one of the two chosen per hit in that proportion
+// (each strategy at the hit then sees the same BSDF, so the choice needs no MIS weight).
+struct BlendLayer {
+    int a = -1, b = -1;
+    Real weight = 0.5;
+};
+// mask: the nested BSDF with probability `opacity`, else the ray passes straight through.
+struct MaskLayer {
+    int nested = -1;
+    Real opacity = 1;
+};
+// normalmap: the nested BSDF about a normal read from a texture of tangent-space normals
+// (RGB = (n + 1) / 2, x along dp/du, z along the shading normal); `strength` blends it with
+// the unperturbed normal, as Blender's Normal Map node does.
+struct NormalMapLayer {
+    int nested = -1, texture = -1;
+    Real strength = 1;
+};
+// bumpmap: the nested BSDF about the normal of the surface displaced along its normal by
+// scale * height(uv) (the texture's first channel), blended by `strength` as Blender's Bump.
+struct BumpMapLayer {
+    int nested = -1, texture = -1;
+    Real scale = 1, strength = 1;
+};
+using Layer = std::variant<std::monostate, BlendLayer, MaskLayer, NormalMapLayer, BumpMapLayer>;
+
 // A BSDF parameter given by a texture: offset + scale * texture(uv), with `scale` a 3x3
 // matrix (diagonal in RGB; in a spectral pass it takes the texture's RGB to the pass's
 // wavelengths), squared where a roughness is given as Blender's and Mitsuba's principled
-// give it (alpha = roughness^2). A roughness takes the first channel.
+// give it (alpha = roughness^2). A roughness, weight or opacity takes the first channel.
 struct TexturedParam {
-    enum class Name : uint8_t { Reflectance, Specular, Alpha } name = Name::Reflectance;
+    enum class Name : uint8_t { Reflectance, Specular, Alpha, Weight, Opacity } name = Name::Reflectance;
     int texture = -1;  // into Scene::textures
     Real scale[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     Spectrum offset{0.0};
@@ -72,14 +100,20 @@ struct TexturedParam {
 };
 
 struct BSDF {
-    BSDFModel model;
+    BSDFModel model;  // unused where `layer` is set
     bool twosided = false;
     std::vector<TexturedParam> textured;  // the parameters that vary over the surface
+    Layer layer;                          // monostate: a leaf, `model` itself
 };
 
-// Whether `model` has the parameter (diffuse and rough plastic have a reflectance, rough
-// plastic and conductors a specular tint, the microfacet models an alpha).
-bool has_param(const BSDFModel &model, TexturedParam::Name name);
+inline bool is_layered(const BSDF &b) { return !std::holds_alternative<std::monostate>(b.layer); }
+
+// Whether the BSDF has the parameter (diffuse and rough plastic have a reflectance, rough
+// plastic and conductors a specular tint, the microfacet models an alpha, a blend a weight,
+// a mask an opacity).
+bool has_param(const BSDF &bsdf, TexturedParam::Name name);
+// A layer's weight or opacity at uv (its texture's, if it has one).
+Real layer_param(const BSDF &bsdf, const std::vector<Texture> &textures, Vec2 uv, Real constant);
 // The BSDF at a surface point: `bsdf` itself if nothing in it is textured, else `local`,
 // set to its model with the textured parameters looked up at uv.
 const BSDF &bsdf_at(const BSDF &bsdf, const std::vector<Texture> &textures, Vec2 uv, BSDF &local);
@@ -91,7 +125,7 @@ struct BSDFSample {
     bool delta = false;
 };
 
-inline bool is_null(const BSDF &b) { return std::holds_alternative<NullBSDF>(b.model); }
+inline bool is_null(const BSDF &b) { return !is_layered(b) && std::holds_alternative<NullBSDF>(b.model); }
 inline bool is_delta(const BSDF &b) {
     if (const auto *c = std::get_if<ConductorBSDF>(&b.model)) return c->alpha == 0;
     return std::holds_alternative<DielectricBSDF>(b.model) || std::holds_alternative<ThinDielectricBSDF>(b.model);

@@ -83,6 +83,10 @@ public:
     int add_box(const Box &box);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
+    // The surface's derivatives dp/du and dp/dv at a hit, for its texture coordinates (a
+    // mesh's, or its barycentrics; a sphere's; a box face's). Where uv does not vary (a
+    // degenerate triangle, a sphere's pole), any two tangents orthogonal to its.n.
+    void uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) const;
     // Whether no other primitive reaches into the shape's interior (a sphere or box; set by
     // build()): a ray from inside it then hits it first, found with no traversal.
     bool empty_inside(int shape) const { return solid_prim_[size_t(shape)] != kNoPrim; }

@@ -127,4 +127,20 @@ struct Scene {
     std::vector<std::pair<std::string, size_t>> memory() const;
 };
 
+// A surface at a hit with its layers resolved (see Layer in bsdf.h) and its textures
+// looked up.
+struct SurfacePoint {
+    const BSDF *bsdf = nullptr;  // the leaf BSDF; nullptr where a mask lets the ray through
+    Real pass = 0;               // then: the probability that it passes (surface_pass)
+    Vec3 ns;                     // the shading normal: its.ns, or as normal and bump maps turn it
+    BSDF local;                  // holds a leaf whose parameters are textured
+};
+// `u` in [0, 1) makes the choices of blends and masks (rescaled after each); only layered
+// BSDFs read it.
+void surface_at(const Scene &scene, int bsdf, const Intersection &its, Real u, SurfacePoint &out);
+// The probability that a ray passes straight through the surface at uv: 1 through a null
+// BSDF, 1 - opacity through a mask, blended through a blend, else 0. Shadow rays are
+// multiplied by it.
+Real surface_pass(const Scene &scene, int bsdf, Vec2 uv);
+
 }  // namespace volpath

@@ -43,6 +43,8 @@ struct CheckerboardTexture {
 using Texture = std::variant<BitmapTexture, CheckerboardTexture>;
 
 Spectrum eval_texture(const Texture &texture, Vec2 uv);
+// A step in uv for finite differences of the texture: half a texel of a bitmap.
+Real texture_step(const Texture &texture);
 size_t texture_bytes(const Texture &texture);
 
 // 8-bit sRGB to linear.

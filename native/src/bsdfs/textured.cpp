@@ -1,4 +1,6 @@
 // BSDF parameters that vary over a surface: looked up in their textures at each hit.
+#include <algorithm>
+
 #include "volpath/bsdf.h"
 
 namespace volpath {
@@ -25,11 +27,29 @@ Real *alpha_param(BSDFModel &model) {
     return nullptr;
 }
 
+Spectrum param_value(const TexturedParam &param, const std::vector<Texture> &textures, Vec2 uv) {
+    const Spectrum t = eval_texture(textures[size_t(param.texture)], uv);
+    Spectrum v = param.offset;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) v[i] += param.scale[i][j] * t[j];
+    return param.squared ? v * v : v;
+}
+
 }  // namespace
 
-bool has_param(const BSDFModel &model, TexturedParam::Name name) {
-    BSDFModel copy = model;
-    return name == TexturedParam::Name::Alpha ? alpha_param(copy) != nullptr : colour_param(copy, name) != nullptr;
+bool has_param(const BSDF &bsdf, TexturedParam::Name name) {
+    using Name = TexturedParam::Name;
+    if (name == Name::Weight) return std::holds_alternative<BlendLayer>(bsdf.layer);
+    if (name == Name::Opacity) return std::holds_alternative<MaskLayer>(bsdf.layer);
+    if (is_layered(bsdf)) return false;
+    BSDFModel copy = bsdf.model;
+    return name == Name::Alpha ? alpha_param(copy) != nullptr : colour_param(copy, name) != nullptr;
+}
+
+Real layer_param(const BSDF &bsdf, const std::vector<Texture> &textures, Vec2 uv, Real constant) {
+    // A layer has one parameter (a blend's weight, a mask's opacity), kept in [0, 1].
+    const Real v = bsdf.textured.empty() ? constant : param_value(bsdf.textured[0], textures, uv)[0];
+    return std::clamp(v, Real(0), Real(1));
 }
 
 const BSDF &bsdf_at(const BSDF &bsdf, const std::vector<Texture> &textures, Vec2 uv, BSDF &local) {
@@ -37,11 +57,7 @@ const BSDF &bsdf_at(const BSDF &bsdf, const std::vector<Texture> &textures, Vec2
     local.model = bsdf.model;
     local.twosided = bsdf.twosided;
     for (const TexturedParam &param : bsdf.textured) {
-        const Spectrum t = eval_texture(textures[size_t(param.texture)], uv);
-        Spectrum v = param.offset;
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) v[i] += param.scale[i][j] * t[j];
-        if (param.squared) v = v * v;
+        const Spectrum v = param_value(param, textures, uv);
         if (param.name == TexturedParam::Name::Alpha) {
             // A smooth microfacet model would be a delta one, which the model cannot switch to
             // per point: the floor the loader gives a constant roughness.

@@ -180,8 +180,15 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         if (crossing > kMaxNullCrossings) return Spectrum(0.0);
         Intersection its;
         const bool hit = scene.intersect(ray, its, current);
-        // Occluded: nothing to estimate (and no tracking to pay for) on the way there.
-        if (hit && !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf])) return Spectrum(0.0);
+        // Occluded: nothing to estimate (and no tracking to pay for) on the way there. A
+        // mask passes the ray with a probability that the path through it would have had
+        // to draw: both the transmittance and the unidirectional pdf take it.
+        if (hit) {
+            const int bsdf = scene.shapes[its.shape].bsdf;
+            const Real pass = is_null(scene.bsdfs[size_t(bsdf)]) ? 1 : surface_pass(scene, bsdf, its.uv);
+            if (pass == 0) return Spectrum(0.0);
+            if (pass < 1) T_ray *= pass, r_u *= pass;
+        }
         const Real t_end = hit ? its.t : ray.t_max;
         if (current >= 0) {
             const Medium &m = scene.media[current];
@@ -774,9 +781,15 @@ Step Path::at_surface(const Intersection &its) {
         add_emission(area.radiance, shape.light,
                      light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
-    BSDF textured;
-    const BSDF &bsdf = bsdf_at(scene.bsdfs[shape.bsdf], scene.textures, its.uv, textured);
-    if (is_null(bsdf)) {
+    SurfacePoint surface;
+    const bool layered = is_layered(scene.bsdfs[size_t(shape.bsdf)]);
+    surface_at(scene, shape.bsdf, its, layered ? sampler.next_1d() : 0, surface);
+    if (!surface.bsdf) {
+        // Through a mask: drawn with probability `pass`, which NEE's shadow rays multiply
+        // by instead (see sample_direct).
+        r_l /= surface.pass;
+    }
+    if (!surface.bsdf || is_null(*surface.bsdf)) {
         if (++null_crossings > kMaxNullCrossings) return Step::Ended;
         medium = medium_after_crossing(shape, ray.d, its.n, medium);
         const Real t_left = ray.t_max - its.t;
@@ -787,7 +800,8 @@ Step Path::at_surface(const Intersection &its) {
     if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) return Step::Ended;
     ++depth;
 
-    const Frame frame(its.ns);
+    const BSDF &bsdf = *surface.bsdf;
+    const Frame frame(surface.ns);
     const Vec3 wi = frame.to_local(-ray.d);
     if (feat.nee && !is_delta(bsdf)) {
         L += sample_direct(

@@ -43,10 +43,13 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
         if (!scene.intersect(ray, its)) break;
         const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
         if (shape.light >= 0) return {Spectrum(1.0), Vec3(0.0), true, its.p};
-        BSDF textured;
-        if (shape.bsdf >= 0 && !is_null(scene.bsdfs[size_t(shape.bsdf)]))
-            return {bsdf_albedo(bsdf_at(scene.bsdfs[size_t(shape.bsdf)], scene.textures, its.uv, textured)),
-                    dot(its.ns, ray.d) > 0 ? -its.ns : its.ns, true, its.p};
+        if (shape.bsdf >= 0) {
+            // Blends and masks as the middle of their choices would have them.
+            SurfacePoint surface;
+            surface_at(scene, shape.bsdf, its, 0.5, surface);
+            if (surface.bsdf && !is_null(*surface.bsdf))
+                return {bsdf_albedo(*surface.bsdf), dot(surface.ns, ray.d) > 0 ? -surface.ns : surface.ns, true, its.p};
+        }
         ray = spawn_ray(its.p, its.n, ray.d);
     }
     return {};

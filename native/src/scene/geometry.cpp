@@ -399,6 +399,61 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const 
     return true;
 }
 
+namespace {
+
+// Each face of a box maps [-1, 1]^2 onto [0, 1]^2, turned as in Mitsuba's cube mesh: per
+// axis and side (+, -), u's and v's axis and sign.
+constexpr int kFaceUV[3][2][4] = {
+    {{1, 1, 2, -1}, {1, 1, 2, 1}}, {{0, -1, 2, -1}, {2, 1, 0, 1}}, {{1, 1, 0, 1}, {1, -1, 0, 1}}};
+
+// The face of a box a point in its space lies on: the axis on which it lies farthest out.
+int box_face_axis(const Vec3 &q) {
+    const int a = std::abs(q.x) > std::abs(q.y) ? 0 : 1;
+    return std::abs(q.z) > std::abs(q[a]) ? 2 : a;
+}
+
+}  // namespace
+
+void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) const {
+    const ShapeGeometry &s = shapes[size_t(its.shape)];
+    dpdu = dpdv = Vec3(0.0);
+    if (s.kind == ShapeGeometry::Kind::Box) {
+        const Box &box = boxes[size_t(s.index)];
+        const Vec3 q = box.to_local.point(its.p);
+        const int a = box_face_axis(q);
+        const int *f = kFaceUV[a][q[a] < 0];
+        Vec3 eu(0.0), ev(0.0);
+        eu[f[0]] = 2.0 * f[1], ev[f[2]] = 2.0 * f[3];  // u = (1 + sign q[axis]) / 2
+        dpdu = box.to_world.vector(eu), dpdv = box.to_world.vector(ev);
+    } else if (s.kind == ShapeGeometry::Kind::Sphere) {
+        const Sphere &sp = spheres[size_t(s.index)];
+        const Vec3 d = its.p - sp.center;  // radius (sin theta cos phi, sin theta sin phi, cos theta)
+        const Real rho = std::sqrt(d.x * d.x + d.y * d.y);
+        dpdu = Vec3(-d.y, d.x, 0.0) * (2 * kPi);
+        if (rho > 0) dpdv = Vec3(d.z * d.x / rho, d.z * d.y / rho, -rho) * kPi;
+    } else {
+        const TriangleMesh &m = meshes[size_t(s.index)];
+        const auto &tri = m.triangles[its.prim];
+        const Vec3 &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
+        if (m.uvs.empty()) {  // uv = (b1, b2)
+            dpdu = p1 - p0, dpdv = p2 - p0;
+        } else {
+            const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
+            const Real du02 = t0.x - t2.x, dv02 = t0.y - t2.y, du12 = t1.x - t2.x, dv12 = t1.y - t2.y;
+            const Real det = du02 * dv12 - dv02 * du12;
+            if (std::abs(det) > 1e-20) {
+                const Vec3 dp02 = p0 - p2, dp12 = p1 - p2;
+                dpdu = (dp02 * dv12 - dp12 * dv02) / det;
+                dpdv = (dp12 * du02 - dp02 * du12) / det;
+            }
+        }
+    }
+    if (!(length_squared(cross(dpdu, dpdv)) > 0)) {
+        const Frame frame(its.n);
+        dpdu = frame.s, dpdv = frame.t;
+    }
+}
+
 void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
     const Primitive &prim = prims_[hit.prim];
     const ShapeGeometry &s = shapes[prim.shape];
@@ -408,14 +463,9 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         const Box &box = boxes[s.index];
         its.p = ray.at(hit.t);
         const Vec3 q = box.to_local.point(its.p);
-        int a = std::abs(q.x) > std::abs(q.y) ? 0 : 1;
-        if (std::abs(q.z) > std::abs(q[a])) a = 2;
+        const int a = box_face_axis(q);
         const Vec3 &n = box.normals[a];
         its.n = its.ns = (q[a] < 0) != box.flip_normals ? -n : n;
-        // Each face maps [-1, 1]^2 onto [0, 1]^2, turned as in Mitsuba's cube mesh:
-        // per axis and side (+, -), u's and v's axis and sign.
-        static constexpr int kFaceUV[3][2][4] = {
-            {{1, 1, 2, -1}, {1, 1, 2, 1}}, {{0, -1, 2, -1}, {2, 1, 0, 1}}, {{1, 1, 0, 1}, {1, -1, 0, 1}}};
         const int *f = kFaceUV[a][q[a] < 0];
         its.uv = {(1 + f[1] * q[f[0]]) * 0.5, (1 + f[3] * q[f[2]]) * 0.5};
     } else if (s.kind == ShapeGeometry::Kind::Sphere) {

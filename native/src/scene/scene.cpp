@@ -10,6 +10,16 @@
 namespace volpath {
 
 int Scene::add_bsdf(const BSDF &b) {
+    // A layer's BSDFs come before it: the layers form no cycle.
+    const auto known = [&](int i) { return i >= 0 && size_t(i) < bsdfs.size(); };
+    const auto texture_known = [&](int i) { return i >= 0 && size_t(i) < textures.size(); };
+    bool ok = true;
+    if (const auto *blend = std::get_if<BlendLayer>(&b.layer)) ok = known(blend->a) && known(blend->b);
+    if (const auto *mask = std::get_if<MaskLayer>(&b.layer)) ok = known(mask->nested);
+    if (const auto *nm = std::get_if<NormalMapLayer>(&b.layer)) ok = known(nm->nested) && texture_known(nm->texture);
+    if (const auto *bump = std::get_if<BumpMapLayer>(&b.layer))
+        ok = known(bump->nested) && texture_known(bump->texture);
+    if (!ok) throw std::invalid_argument("a layered bsdf names a bsdf or texture that does not exist yet");
     bsdfs.push_back(b);
     return int(bsdfs.size()) - 1;
 }
@@ -23,7 +33,7 @@ void Scene::bind_texture(int bsdf, const TexturedParam &param) {
     if (bsdf < 0 || size_t(bsdf) >= bsdfs.size()) throw std::invalid_argument("bsdf index out of range");
     if (param.texture < 0 || size_t(param.texture) >= textures.size())
         throw std::invalid_argument("texture index out of range");
-    if (!has_param(bsdfs[size_t(bsdf)].model, param.name))
+    if (!has_param(bsdfs[size_t(bsdf)], param.name))
         throw std::invalid_argument("this bsdf has no such parameter to texture");
     bsdfs[size_t(bsdf)].textured.push_back(param);
 }

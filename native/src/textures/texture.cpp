@@ -72,6 +72,11 @@ Spectrum eval_texture(const Texture &texture, Vec2 uv) {
     return std::visit([&](const auto &t) { return eval(t, uv); }, texture);
 }
 
+Real texture_step(const Texture &texture) {
+    if (const auto *b = std::get_if<BitmapTexture>(&texture)) return 0.5 / std::max(b->width, b->height);
+    return 1e-3;
+}
+
 size_t texture_bytes(const Texture &texture) {
     if (const auto *b = std::get_if<BitmapTexture>(&texture))
         return sizeof(BitmapTexture) + b->bytes.capacity() + b->floats.capacity() * sizeof(float);
