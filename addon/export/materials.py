@@ -2,15 +2,21 @@
 
 What maps (in Blender's radiometry, as Cycles renders it; lights.py gives the lights'):
   Principled BSDF   -> principled (base colour, metallic, roughness; IOR and Specular IOR
-                       Level give the coat's F0), diffuse when F0 is 0, or, with
-                       transmission, dielectric (IOR); emission colour x strength -> area emitter
+                       Level give the coat's F0), diffuse when F0 and metallic are 0, or,
+                       with transmission, glass; emission colour x strength -> area emitter
   Diffuse / Glass / Emission -> diffuse / dielectric / area emitter on a black diffuse
   Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - absorption colour);
                        emission E (per unit length) -> Le = E / sigma_a; blackbody -> Le = intensity x
                        Planck radiance at the temperature (times the temperature grid, for volumes)
   Volume Scatter    -> sigma_s = density colour;  Volume Absorption -> sigma_a = density (1 - colour)
+  Mix Shader       -> blendbsdf (Fac a number or texture); Transparent BSDF -> null
+  Principled Alpha -> mask; Metallic (a number or texture) -> principled's mixture of
+                       plastic and a metal of F0 = base colour (volpath/plugins/bsdfs.py)
+  Glass and Transmission -> dielectric, roughdielectric where rough
+  Normal Map (tangent) and Bump -> normalmap and bumpmap around the BSDF
 Textures (textures.py): Image Texture nodes, through UV Map and Mapping nodes, on the Base
-Color and Roughness of a Principled BSDF and the Color of a Diffuse BSDF.
+Color, Roughness and Metallic of a Principled BSDF, the Color of a Diffuse BSDF, a Mix Shader's Fac,
+a Normal Map's Color and a Bump's Height.
 Everything else (other nodes plugged into inputs, other shaders) is reported as a warning
 and replaced by the input's default value, never ignored silently.
 """
@@ -105,39 +111,119 @@ def _colour(v):
 
 
 def _surface(node, owner, report, images):
-    get = _Inputs(node, owner, report, images)
+    """(bsdf dict, emitted radiance or None) of the shader node plugged into Surface."""
     kind = node.bl_idname
+    if kind == "ShaderNodeMixShader":
+        return _mix(node, owner, report, images)
+    if kind == "ShaderNodeBsdfTransparent":
+        if np.ptp(node.inputs["Color"].default_value[:3]) > 1e-6 or node.inputs["Color"].default_value[0] < 1:
+            report.warn(f"{owner}: a tinted Transparent BSDF is not supported; it lets all light through")
+        return {"type": "null"}, None
+    get = _Inputs(node, owner, report, images)
+    radiance = None
     if kind == "ShaderNodeBsdfPrincipled":
-        emission = get("Emission Color") * get("Emission Strength")
-        radiance = emission if np.any(emission > 0) else None
-        for name in ("Coat Weight", "Sheen Weight", "Subsurface Weight"):
-            if get(name) > 0:
-                report.warn(f"{owner}: '{name}' is not supported (ignored)")
-        if get("Transmission Weight") >= 0.5:
-            return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, radiance
-        base, metallic = get.texture("Base Color"), float(np.clip(get("Metallic"), 0, 1))
-        # Specular IOR Level scales the coat's normal-incidence reflectance F0 (0.5: as the IOR says).
-        ior = max(get("IOR"), 1.0)
-        f0 = ((ior - 1) / (ior + 1)) ** 2 * 2 * max(get("Specular IOR Level"), 0.0)
-        if f0 < 1e-4 and metallic == 0:
-            return {"type": "diffuse", "reflectance": _colour(base)}, radiance
-        eta = (1 + math.sqrt(min(f0, 0.9))) / (1 - math.sqrt(min(f0, 0.9)))
-        rough = get.texture("Roughness")
-        return {
-            "type": "principled",
-            "base_color": _colour(base),
-            "metallic": metallic,
-            "roughness": rough if isinstance(rough, dict) else float(np.clip(rough, 0, 1)),
-            "eta": max(eta, 1.0001),
-        }, radiance
-    if kind == "ShaderNodeBsdfDiffuse":
-        return {"type": "diffuse", "reflectance": _colour(get.texture("Color"))}, None
-    if kind == "ShaderNodeBsdfGlass":
-        return {"type": "dielectric", "int_ior": max(get("IOR"), 1.0001), "ext_ior": 1.0}, None
-    if kind == "ShaderNodeEmission":
+        bsdf, radiance = _principled(get, owner, report)
+    elif kind == "ShaderNodeBsdfDiffuse":
+        bsdf = {"type": "diffuse", "reflectance": _colour(get.texture("Color"))}
+    elif kind == "ShaderNodeBsdfGlass":
+        bsdf = _glass(get("IOR"), get("Roughness"))
+    elif kind == "ShaderNodeEmission":
         return {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}, get("Color") * get("Strength")
-    report.warn(f"{owner}: surface node '{node.name}' ({node.bl_label}) is not supported; using a grey diffuse")
-    return DEFAULT_SURFACE, None
+    else:
+        report.warn(f"{owner}: surface node '{node.name}' ({node.bl_label}) is not supported; using a grey diffuse")
+        return DEFAULT_SURFACE, None
+    bsdf = _perturbed(node, bsdf, owner, report, images)
+    if kind == "ShaderNodeBsdfPrincipled":
+        alpha = float(np.clip(get("Alpha"), 0, 1))
+        if alpha < 1:
+            bsdf = {"type": "mask", "opacity": alpha, "surface": bsdf}
+    return bsdf, radiance
+
+
+def _principled(get, owner, report):
+    emission = get("Emission Color") * get("Emission Strength")
+    radiance = emission if np.any(emission > 0) else None
+    for name in ("Coat Weight", "Sheen Weight", "Subsurface Weight"):
+        if get(name) > 0:
+            report.warn(f"{owner}: '{name}' is not supported (ignored)")
+    if get("Transmission Weight") >= 0.5:
+        return _glass(get("IOR"), get("Roughness")), radiance
+    base, metallic, rough = get.texture("Base Color"), get.texture("Metallic"), get.texture("Roughness")
+    if not isinstance(metallic, dict):
+        metallic = float(np.clip(metallic, 0, 1))
+    # Specular IOR Level scales the coat's normal-incidence reflectance F0 (0.5: as the IOR says).
+    ior = max(get("IOR"), 1.0)
+    f0 = ((ior - 1) / (ior + 1)) ** 2 * 2 * max(get("Specular IOR Level"), 0.0)
+    if f0 < 1e-4 and metallic == 0:
+        return {"type": "diffuse", "reflectance": _colour(base)}, radiance
+    eta = (1 + math.sqrt(min(f0, 0.9))) / (1 - math.sqrt(min(f0, 0.9)))
+    return {
+        "type": "principled",
+        "base_color": _colour(base),
+        "metallic": metallic,
+        "roughness": rough if isinstance(rough, dict) else float(np.clip(rough, 0, 1)),
+        "eta": max(eta, 1.0001),
+    }, radiance
+
+
+def _glass(ior, roughness):
+    """Glass (or full transmission): smooth, or GGX with alpha = roughness^2."""
+    d = {"type": "dielectric", "int_ior": max(ior, 1.0001), "ext_ior": 1.0}
+    if roughness**2 >= 1e-3:
+        d.update(type="roughdielectric", distribution="ggx", alpha=float(roughness) ** 2)
+    return d
+
+
+def _mix(node, owner, report, images):
+    """Mix Shader: (1 - Fac) x the first + Fac x the second, as a blendbsdf."""
+    get = _Inputs(node, owner, report, images)
+    parts = []
+    for socket in (node.inputs[1], node.inputs[2]):
+        if socket.is_linked:
+            parts.append(_surface(socket.links[0].from_node, owner, report, images))
+        else:
+            report.warn(f"{owner}: an empty shader input of '{node.name}' is read as a grey diffuse")
+            parts.append((DEFAULT_SURFACE, None))
+    fac = get.texture("Fac")
+    (a, ra), (b, rb) = parts
+    radiance = None
+    if ra is not None or rb is not None:
+        if isinstance(fac, dict):
+            report.warn(f"{owner}: emission mixed by a texture is not supported (none emitted)")
+        else:
+            zero = np.zeros(3)
+            radiance = (1 - fac) * (zero if ra is None else ra) + fac * (zero if rb is None else rb)
+    weight = fac if isinstance(fac, dict) else float(np.clip(fac, 0, 1))
+    return {"type": "blendbsdf", "weight": weight, "first": a, "second": b}, radiance
+
+
+def _perturbed(node, bsdf, owner, report, images):
+    """The BSDF under a Normal Map or Bump node plugged into the shader's Normal input
+    (a Bump's own Normal input may take a Normal Map in turn)."""
+    socket = node.inputs.get("Normal")
+    if socket is None or not socket.is_linked:
+        return bsdf
+    source = socket.links[0].from_node
+    if source.bl_idname == "ShaderNodeBump":
+        get = _Inputs(source, owner, report, images)
+        height = source.inputs["Height"]
+        heights = images.bitmap(height.links[0], f"'Height' of '{source.name}'") if height.is_linked else None
+        inner = _perturbed(source, bsdf, owner, report, images)
+        if heights is None:
+            report.warn(f"{owner}: bump '{source.name}' needs an Image Texture as its Height; ignored")
+            return inner
+        scale = get("Distance") * (-1 if source.invert else 1)
+        return {"type": "bumpmap", "heights": heights, "scale": scale, "strength": get("Strength"), "surface": inner}
+    if source.bl_idname == "ShaderNodeNormalMap":
+        get = _Inputs(source, owner, report, images)
+        color = source.inputs["Color"]
+        normals = images.bitmap(color.links[0], f"'Color' of '{source.name}'") if color.is_linked else None
+        if source.space != "TANGENT" or normals is None:
+            report.warn(f"{owner}: normal map '{source.name}' needs tangent space and an Image Texture; ignored")
+            return bsdf
+        return {"type": "normalmap", "normalmap": normals, "strength": get("Strength"), "surface": bsdf}
+    report.warn(f"{owner}: the Normal input of '{node.name}' is driven by '{source.name}'; ignored")
+    return bsdf
 
 
 def _volume(node, owner, report):

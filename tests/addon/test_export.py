@@ -93,7 +93,8 @@ def test_instances_share_arrays_and_modifiers_apply(blank):
 def test_materials_map_to_bsdfs_and_emitters(blank):
     add_camera(blank)
     specs = {
-        "glass": dict(Transmission_Weight=1.0, IOR=1.33),
+        "glass": dict(Transmission_Weight=1.0, IOR=1.33, Roughness=0.0),
+        "frosted": dict(Transmission_Weight=1.0, IOR=1.33, Roughness=0.5),
         "metal": dict(Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.2),
         "lamp": dict(Emission_Color=(1, 0.5, 0.25, 1), Emission_Strength=4.0),
         "plastic": dict(Base_Color=(0.2, 0.3, 0.4, 1)),
@@ -105,6 +106,7 @@ def test_materials_map_to_bsdfs_and_emitters(blank):
         bpy.context.object.data.materials.append(material(name, **inputs))
     d = export_scene(depsgraph()).scene
     assert d["glass"]["bsdf"] == {"type": "dielectric", "int_ior": pytest.approx(1.33), "ext_ior": 1.0}
+    assert d["frosted"]["bsdf"]["type"] == "roughdielectric" and d["frosted"]["bsdf"]["alpha"] == pytest.approx(0.25)
     assert d["metal"]["bsdf"]["metallic"] == 1.0 and d["metal"]["bsdf"]["roughness"] == pytest.approx(0.2)
     assert d["lamp"]["emitter"]["radiance"]["value"] == pytest.approx([4, 2, 1])
     assert d["plastic"]["bsdf"]["eta"] == pytest.approx(1.5)  # IOR 1.5 at the default level 0.5

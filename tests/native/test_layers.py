@@ -160,9 +160,17 @@ def render_mean(scene, spp, seed):
     return volpath.render(scene, spp=spp, seed=seed, tracer="nee_mis", threads=2).mean(axis=(0, 1))
 
 
-def test_a_mask_between_light_and_floor_passes_one_minus_opacity_under_mis():
+BLACK = {"type": "diffuse", "reflectance": 0.0}
+PANES = {
+    "mask": {"type": "mask", "opacity": 0.4, "black": BLACK},
+    "blend with null": {"type": "blendbsdf", "weight": 0.4, "a": {"type": "null"}, "b": BLACK},
+}
+
+
+@pytest.mark.parametrize("pane", PANES)
+def test_a_pane_between_light_and_floor_passes_its_share_under_mis(pane):
     """An area light over a diffuse floor, with a pane of black diffuse masked to opacity
-    0.4 between them: the floor's light falls to 0.6 of what it was, and the camera sees
+    0.4 (or blended 0.4 with a null BSDF) between them: the floor's light falls to 0.6 of what it was, and the camera sees
     the floor through the pane too: 0.36 in all. NEE's shadow rays and BSDF-sampled rays
     through the pane must agree on the pane's share, else the MIS weights no longer sum
     to one. 16 seeds each way; 5 standard errors."""
@@ -184,17 +192,14 @@ def test_a_mask_between_light_and_floor_passes_one_minus_opacity_under_mis():
                 "type": "rectangle",
                 "to_world": placed(1.5, flip=True, z=2),
                 "emitter": {"type": "area", "radiance": 5.0},
-                "bsdf": {"type": "diffuse", "reflectance": 0.0},  # no light back to the floor
+                "bsdf": BLACK,  # no light back to the floor
             },
         }
         if with_pane:
             d["pane"] = {
                 "type": "rectangle",
                 "to_world": placed(2.5, z=1),
-                "bsdf": {
-                    "type": "twosided",
-                    "m": {"type": "mask", "opacity": 0.4, "black": {"type": "diffuse", "reflectance": 0.0}},
-                },
+                "bsdf": {"type": "twosided", "m": PANES[pane]},
             }
         return volpath.load_dict(d)
 

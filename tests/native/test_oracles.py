@@ -197,6 +197,25 @@ def test_plastic_with_a_white_base_returns_what_it_receives(eta):
         assert abs(w.mean() - 1) < 4 * w.std() / np.sqrt(len(w)), (eta, wi, w.mean())
 
 
+def test_a_metallic_principled_reflects_its_base_colour_head_on_and_white_at_grazing():
+    """metallic 1 is a conductor whose Fresnel reflectance is the base colour at normal
+    incidence (k^2 / (4 + k^2) with eta 1) and rises toward 1 at grazing angles; near-zero
+    roughness makes the sample weight that reflectance."""
+    base = (0.9, 0.6, 0.2)
+    scene = volpath.load_dict(
+        {
+            "type": "scene",
+            "camera": {"type": "perspective"},
+            "s": {"type": "sphere", "b": {"type": "principled", "base_color": base, "metallic": 1.0, "roughness": 0.0}},
+        }
+    )
+    u = np.random.default_rng(3).random((1000, 3))
+    head_on = _core.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u)
+    np.testing.assert_allclose(head_on.mean(axis=0), base, rtol=2e-3)
+    grazing = _core.bsdf_sample_weight(scene.native, 0, (0.9995, 0.0, 0.0316), u).mean(axis=0)
+    assert np.all(grazing > 0.9), grazing
+
+
 def test_thin_glass_reflects_twice_fresnels_share_and_loses_nothing():
     """A thin sheet reflects 2R / (1 + R) (both faces and the light bouncing between them,
     R the Fresnel reflectance of one face), from either side, and passes the rest straight

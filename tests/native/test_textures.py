@@ -194,8 +194,12 @@ def _flat(value, channels=3):
             },
         ),
         (
+            {"type": "principled", "base_color": 0.5, "roughness": 0.5},
+            {"type": "principled", "base_color": _flat(0.5), "roughness": _flat(0.5, 1)},
+        ),
+        (
             {"type": "principled", "base_color": 0.5, "metallic": 0.25, "roughness": 0.5},
-            {"type": "principled", "base_color": _flat(0.5), "metallic": 0.25, "roughness": _flat(0.5, 1)},
+            {"type": "principled", "base_color": 0.5, "metallic": _flat(0.25, 1), "roughness": _flat(0.5, 1)},
         ),
         (
             {"type": "roughconductor", "distribution": "ggx", "specular_reflectance": 0.5, "alpha": 0.25},
@@ -206,12 +210,12 @@ def _flat(value, channels=3):
             {"type": "roughdielectric", "distribution": "ggx", "alpha": _flat(0.25, 1)},
         ),
     ],
-    ids=["diffuse", "roughplastic", "principled", "roughconductor", "roughdielectric"],
+    ids=["diffuse", "roughplastic", "principled", "principled metallic", "roughconductor", "roughdielectric"],
 )
 def test_a_uniform_texture_renders_the_bits_of_its_constant(constant, textured):
     """Every parameter a texture can drive, given by a texture of one value (exact in
     float32), renders the same bits as the constant: the binding puts the value where
-    the constant goes (principled: roughness squared, base colour split by metallic)."""
+    the constant goes (principled: roughness squared, metallic the blend's weight)."""
     a = volpath.render(volpath.load_dict(_scene_dict(constant)), seed=2)
     b = volpath.render(volpath.load_dict(_scene_dict(textured)), seed=2)
     assert np.array_equal(a, b)

@@ -86,33 +86,7 @@ def build(b, d, twosided=False):
         index = n.add_bsdf_roughplastic(value(diffuse, GREY), value(specular, WHITE), value(alpha, 0.1), eta, twosided)
         textures.bind(b, index, reflectance=diffuse, specular=specular, alpha=alpha)
     elif p.type == "principled":
-        # Mapped onto the rough plastic: base colour under a GGX coat; metals tint the coat.
-        base = textures.param(b, p, "base_color", 0.5)
-        metallic = p.float("metallic", 0.0, minimum=0.0)
-        rough = textures.param(b, p, "roughness", 0.5)
-        eta = p.float("eta", 1.5, positive=True)
-        for ignored in (
-            "specular",
-            "spec_tint",
-            "anisotropic",
-            "sheen",
-            "sheen_tint",
-            "clearcoat",
-            "clearcoat_gloss",
-            "spec_trans",
-            "flatness",
-        ):
-            p.raw(ignored)
-        if isinstance(base, Textured):
-            diffuse, specular = base._replace(scale=1 - metallic), base._replace(scale=metallic, offset=1 - metallic)
-        else:
-            diffuse, specular = base * (1 - metallic), (1 - metallic) * np.ones(3) + metallic * base
-        if isinstance(rough, Textured):  # alpha = roughness^2, as for a constant
-            alpha = rough._replace(squared=True)
-        else:
-            alpha = max(float(rough[0]) ** 2, 1e-3)
-        index = n.add_bsdf_roughplastic(value(diffuse, GREY), value(specular, WHITE), value(alpha, 0.1), eta, twosided)
-        textures.bind(b, index, reflectance=diffuse, specular=specular, alpha=alpha)
+        index = _principled(b, p, twosided)
     else:
         raise p.error(
             "unknown bsdf (expected one of: null, diffuse, dielectric, thindielectric, roughdielectric, conductor, "
@@ -123,6 +97,55 @@ def build(b, d, twosided=False):
     b.bsdfs[key] = index
     if p.type != "twosided":  # the sided one it wraps is listed
         b.summary["bsdfs"].append({"type": p.type, "twosided": twosided, "id": d.get("__id__"), "loc": p.loc})
+    return index
+
+
+def _principled(b, p, twosided):
+    """Mitsuba's principled as a mixture, by metallic, of a rough plastic (the base colour
+    under a GGX coat of index eta) and a metal whose normal-incidence reflectance is the
+    base colour (a conductor of eta 1 and k = 2 sqrt(F0 / (1 - F0)), its Fresnel rising to
+    white at grazing angles; a textured base colour tints a mirror instead). Both take
+    alpha = roughness^2."""
+    base = textures.param(b, p, "base_color", 0.5)
+    metallic = _unit_param(b, p, "metallic", 0.0)
+    rough = textures.param(b, p, "roughness", 0.5)
+    eta = p.float("eta", 1.5, positive=True)
+    for ignored in (
+        "specular",
+        "spec_tint",
+        "anisotropic",
+        "sheen",
+        "sheen_tint",
+        "clearcoat",
+        "clearcoat_gloss",
+        "spec_trans",
+        "flatness",
+    ):
+        p.raw(ignored)
+    alpha = rough._replace(squared=True) if isinstance(rough, Textured) else max(float(rough[0]) ** 2, 1e-3)
+    n = b.native
+
+    def plastic():
+        index = n.add_bsdf_roughplastic(value(base, GREY), WHITE, value(alpha, 0.1), eta, twosided)
+        textures.bind(b, index, reflectance=base, alpha=alpha)
+        return index
+
+    def metal():
+        if isinstance(base, Textured):
+            index = n.add_bsdf_conductor(np.zeros(3), np.zeros(3), WHITE, value(alpha, 0.1), twosided)
+            textures.bind(b, index, specular=base, alpha=alpha)
+            return index
+        f0 = np.clip(base, 0.0, 0.999)
+        index = n.add_bsdf_conductor(np.ones_like(f0), 2 * np.sqrt(f0 / (1 - f0)), WHITE, value(alpha, 0.1), twosided)
+        textures.bind(b, index, alpha=alpha)
+        return index
+
+    if metallic == 0:
+        return plastic()
+    if metallic == 1:
+        return metal()
+    index = n.add_bsdf_blend(plastic(), metal(), value(metallic, 0.5))
+    textures.bind(b, index, weight=metallic)
     return index
 
 

@@ -130,10 +130,12 @@ struct Scene {
 // A surface at a hit with its layers resolved (see Layer in bsdf.h) and its textures
 // looked up.
 struct SurfacePoint {
-    const BSDF *bsdf = nullptr;  // the leaf BSDF; nullptr where a mask lets the ray through
-    Real pass = 0;               // then: the probability that it passes (surface_pass)
-    Vec3 ns;                     // the shading normal: its.ns, or as normal and bump maps turn it
-    BSDF local;                  // holds a leaf whose parameters are textured
+    // The leaf BSDF; nullptr where a mask, or a null BSDF inside a blend, lets the ray
+    // through (a null BSDF on its own is a medium's boundary, returned as it is).
+    const BSDF *bsdf = nullptr;
+    Real pass = 0;  // then: the probability that it passes (surface_pass)
+    Vec3 ns;        // the shading normal: its.ns, or as normal and bump maps turn it
+    BSDF local;     // holds a leaf whose parameters are textured
 };
 // `u` in [0, 1) makes the choices of blends and masks (rescaled after each); only layered
 // BSDFs read it.

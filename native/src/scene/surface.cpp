@@ -82,6 +82,10 @@ void surface_at(const Scene &scene, int index, const Intersection &its, Real u, 
         } else if (const auto *bump = std::get_if<BumpMapLayer>(&b.layer)) {
             out.ns = bump_mapped(scene, *bump, its, out.ns);
             index = bump->nested;
+        } else if (index != top && is_null(b)) {  // a blend's transparent part: as a mask's
+            out.bsdf = nullptr;
+            out.pass = surface_pass(scene, top, its.uv);
+            return;
         } else {
             out.bsdf = &bsdf_at(b, scene.textures, its.uv, out.local);
             return;
