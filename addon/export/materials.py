@@ -15,8 +15,8 @@ What maps (in Blender's radiometry, as Cycles renders it; lights.py gives the li
   Glass and Transmission -> dielectric, roughdielectric where rough
   Normal Map (tangent) and Bump -> normalmap and bumpmap around the BSDF
 Textures (textures.py): Image Texture nodes, through UV Map and Mapping nodes, on the Base
-Color, Roughness and Metallic of a Principled BSDF, the Color of a Diffuse BSDF, a Mix Shader's Fac,
-a Normal Map's Color and a Bump's Height.
+Color, Roughness, Metallic and Alpha (an image's Alpha output) of a Principled BSDF, the
+Color of a Diffuse BSDF, a Mix Shader's Fac, a Normal Map's Color and a Bump's Height.
 Everything else (other nodes plugged into inputs, other shaders) is reported as a warning
 and replaced by the input's default value, never ignored silently.
 """
@@ -134,9 +134,10 @@ def _surface(node, owner, report, images):
         return DEFAULT_SURFACE, None
     bsdf = _perturbed(node, bsdf, owner, report, images)
     if kind == "ShaderNodeBsdfPrincipled":
-        alpha = float(np.clip(get("Alpha"), 0, 1))
-        if alpha < 1:
-            bsdf = {"type": "mask", "opacity": alpha, "surface": bsdf}
+        alpha = get.texture("Alpha")
+        if isinstance(alpha, dict) or alpha < 1:
+            opacity = alpha if isinstance(alpha, dict) else float(np.clip(alpha, 0, 1))
+            bsdf = {"type": "mask", "opacity": opacity, "surface": bsdf}
     return bsdf, radiance
 
 

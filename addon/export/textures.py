@@ -1,5 +1,6 @@
 """Image Texture nodes to bitmaps: the image (its file, or its pixels when it has none on
-disk), how it is sampled, and the UV Map and Mapping nodes in front of it.
+disk; its alpha channel, from the Alpha output), how it is sampled, and the UV Map and
+Mapping nodes in front of it.
 
 Blender's UVs have v = 0 at an image's bottom row, the scene format's at its top: meshes.py
 flips the UVs, and a Mapping node's matrix is conjugated by that flip here."""
@@ -26,14 +27,15 @@ class Images:
     def bitmap(self, link, what):
         """The bitmap dictionary for the node a link comes from, or None (reported) when it
         is not an Image Texture whose colour Volpath can read."""
-        node = link.from_node
-        if node.bl_idname != "ShaderNodeTexImage" or link.from_socket.name != "Color":
+        node, output = link.from_node, link.from_socket.name
+        if node.bl_idname != "ShaderNodeTexImage" or output not in ("Color", "Alpha"):
             return None
         if node.image is None:
             self.report.warn(f"{self.owner}: image texture '{node.name}' has no image; using {what}'s value")
             return None
-        if node.name not in self._bitmaps:
-            d = _image(node.image, self.owner, self.report)
+        key = (node.name, output)
+        if key not in self._bitmaps:
+            d = _image(node.image, self.owner, self.report) if output == "Color" else _alpha(node.image, self.owner)
             if node.projection != "FLAT":
                 self.report.warn(f"{self.owner}: '{node.name}' uses {node.projection} projection; read as FLAT")
             if node.interpolation in ("Cubic", "Smart"):
@@ -49,8 +51,8 @@ class Images:
                 self.report.warn(f"{self.owner}: textures read different UV maps; all read '{self.uv_map}'")
             elif self.uv_map is None:
                 self.uv_map = uv_map
-            self._bitmaps[node.name] = d
-        return self._bitmaps[node.name]
+            self._bitmaps[key] = d
+        return self._bitmaps[key]
 
     def _coordinates(self, node):
         """(UV map name, "" for the render one; the scene's 3x3 to_uv) of an image's Vector
@@ -118,20 +120,32 @@ def _image(image, owner, report):
         if raw and not path.lower().endswith(".exr"):
             d["raw"] = True
         return d
-    w, h = image.size  # loads the image if it can
-    if w == 0 or h == 0:
-        raise _export_error(f"{owner}: image '{image.name}' has no pixels (is its file missing?)")
-    pixels = np.empty(w * h * 4, np.float32)
-    image.pixels.foreach_get(pixels)
-    # Blender's rows start at the bottom; a byte image's pixels are its bytes / 255, a
-    # float image's are scene linear.
-    texels = pixels.reshape(h, w, 4)[::-1, :, :3]
+    # A byte image's pixels are its bytes / 255, a float image's are scene linear.
+    texels = _pixels(image, owner)[:, :, :3]
     if image.is_float:
         return {"type": "bitmap", "data": np.ascontiguousarray(texels)}
     d = {"type": "bitmap", "data": np.ascontiguousarray(np.round(np.clip(texels, 0, 1) * 255).astype(np.uint8))}
     if raw:
         d["raw"] = True
     return d
+
+
+def _pixels(image, owner):
+    """An image's RGBA pixels (h, w, 4), rows top first."""
+    w, h = image.size  # loads the image if it can
+    if w == 0 or h == 0:
+        raise _export_error(f"{owner}: image '{image.name}' has no pixels (is its file missing?)")
+    pixels = np.empty(w * h * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(h, w, 4)[::-1]  # Blender's rows start at the bottom
+
+
+def _alpha(image, owner):
+    """The image's alpha channel as a raw one-channel bitmap (8-bit for byte images)."""
+    alpha = np.ascontiguousarray(_pixels(image, owner)[:, :, 3:])
+    if image.is_float:
+        return {"type": "bitmap", "data": alpha}
+    return {"type": "bitmap", "data": np.round(np.clip(alpha, 0, 1) * 255).astype(np.uint8), "raw": True}
 
 
 def _bpy_path(image):

@@ -133,10 +133,27 @@ def test_sampling_settings_and_uv_maps(blank, tmp_path):
 
 def test_unsupported_texture_inputs_warn(blank, tmp_path):
     image = bpy.data.images.load(quadrants(tmp_path / "q.png"))
-    m, tex = textured_material("alpha", image, socket="Alpha")
+    m, tex = textured_material("glowing", image, socket="Emission Color")
     plane_under_white_sky(blank, m)
     warnings = export_scene(depsgraph()).warnings
-    assert any("'Alpha'" in w and "driven by nodes" in w for w in warnings)
+    assert any("'Emission Color'" in w and "driven by nodes" in w for w in warnings)
+
+
+def test_an_images_alpha_output_makes_a_mask(blank):
+    """Alpha from the image's Alpha output: a one-channel raw bitmap of the alpha, rows top
+    first, as the mask's opacity."""
+    image = bpy.data.images.new("leaf", 2, 2, alpha=True)
+    image.pixels.foreach_set(np.array([1, 1, 1, 0.0] * 2 + [1, 1, 1, 1.0] * 2, np.float32))  # bottom row clear
+    m, bsdf = principled("leaf")
+    tex = m.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    m.node_tree.links.new(tex.outputs["Alpha"], bsdf.inputs["Alpha"])
+    plane_under_white_sky(blank, m)
+    mask = export_scene(depsgraph()).scene["Plane"]["bsdf"]
+    assert mask["type"] == "mask" and mask["surface"]["type"] == "principled"
+    opacity = mask["opacity"]
+    assert opacity["raw"] and opacity["data"].shape == (2, 2, 1)
+    np.testing.assert_array_equal(opacity["data"][:, :, 0], [[255, 255], [0, 0]])
 
 
 def test_a_missing_image_file_is_an_error_naming_it(blank, tmp_path):
