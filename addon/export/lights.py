@@ -38,12 +38,12 @@ def export(obj, matrix_world, report):
             "irradiance": convert.rgb(color),
         }
     if light.type == "AREA":
-        return _area(light, matrix_world, color, report, name)
+        return _area(light, matrix_world, color, report, name, obj.visible_camera)
     report.warn(f"light '{name}': {light.type.lower()} lights are not supported (skipped)")
     return None
 
 
-def _area(light, matrix_world, power, report, name):
+def _area(light, matrix_world, power, report, name, camera_visible):
     sx = light.size
     sy = light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size
     if light.shape in ("SQUARE", "RECTANGLE"):
@@ -67,11 +67,14 @@ def _area(light, matrix_world, power, report, name):
     if area <= 0:
         report.warn(f"light '{name}': zero area (skipped)")
         return None
+    # Lights are not geometry (as in Cycles): a null BSDF lets every ray through, shadow
+    # rays included, and the camera sees the light only if the object says so.
     return {
         "type": "mesh",
         "positions": positions,
         "indices": indices,
         "to_world": to_world,
-        "bsdf": {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))},
+        "bsdf": {"type": "null"},
         "emitter": {"type": "area", "radiance": convert.rgb(power / (math.pi * area))},
+        "camera_visible": bool(camera_visible),
     }

@@ -76,11 +76,12 @@ int add_or_replace(Scene &s, const Light &l, int replace) {
     return replace;
 }
 
-ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface) {
+ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface, bool camera_visible) {
     ShapeInfo info;
     info.bsdf = bsdf;
     info.interior = interior, info.exterior = exterior;
     info.medium_interface = medium_interface;
+    info.camera_visible = camera_visible;
     return info;
 }
 
@@ -416,7 +417,7 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions,
                const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
-               std::optional<Array3> radiance, std::optional<DoubleArray> uvs) {
+               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, bool camera_visible) {
                 TriangleMesh mesh;
                 mesh.positions = points(positions, "positions");
                 if (normals) mesh.normals = points(*normals, "normals");
@@ -432,32 +433,35 @@ PYBIND11_MODULE(_core, m) {
                 for (size_t i = 0; i < mesh.triangles.size(); ++i)
                     mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
-                return s.add_shape_mesh(std::move(mesh), shape_info(bsdf, interior, exterior, medium_interface),
+                return s.add_shape_mesh(std::move(mesh),
+                                        shape_info(bsdf, interior, exterior, medium_interface, camera_visible),
                                         radiance ? &Le : nullptr);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("uvs") = py::none())
+            py::arg("uvs") = py::none(), py::arg("camera_visible") = true)
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
-               bool medium_interface, std::optional<Array3> radiance) {
+               bool medium_interface, std::optional<Array3> radiance, bool camera_visible) {
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
                 return s.add_shape_sphere(Sphere{vec(center), radius, flip},
-                                          shape_info(bsdf, interior, exterior, medium_interface),
+                                          shape_info(bsdf, interior, exterior, medium_interface, camera_visible),
                                           radiance ? &Le : nullptr);
             },
             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"), py::arg("interior") = -1,
-            py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none())
+            py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
+            py::arg("camera_visible") = true)
         .def(
             "add_box",
             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
-               int exterior, bool medium_interface) {
+               int exterior, bool medium_interface, bool camera_visible) {
                 return s.add_shape_box(Box{transform(to_world), transform(to_local), flip},
-                                       shape_info(bsdf, interior, exterior, medium_interface));
+                                       shape_info(bsdf, interior, exterior, medium_interface, camera_visible));
             },
             py::arg("to_world"), py::arg("to_local"), py::arg("flip_normals"), py::arg("bsdf"),
-            py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false)
+            py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
+            py::arg("camera_visible") = true)
         .def(
             "add_medium_atmosphere",
             [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,

@@ -1,6 +1,5 @@
 // The tests' probes into the core's parts: the samplers, media, lights and BSDFs on their
 // own, for chi-square tests, oracles and the accuracy study.
-#include <functional>
 #include <limits>
 
 #include "convert.h"
@@ -377,8 +376,8 @@ void bind_probes(py::module_ &m) {
         for (size_t i = 0; i < os.size(); ++i) {
             Intersection its;
             const bool hit = s.intersect(Ray{os[i], normalize(ds[i]), 0, kInfinity}, its);
-            o(i, 0) = hit ? its.uv.x : std::nan("");
-            o(i, 1) = hit ? its.uv.y : std::nan("");
+            const Vec2 uv = hit ? s.geometry.uv(its) : Vec2{std::nan(""), std::nan("")};
+            o(i, 0) = uv.x, o(i, 1) = uv.y;
         }
         return out;
     });
@@ -408,22 +407,14 @@ void bind_probes(py::module_ &m) {
         }
         return py::make_tuple(dirs, pdfs);
     });
-    // A blend's or mask's samples on a flat surface (z up) at uv: per row of u (layer choice,
-    // lobe, 2D), the direction, the weight (f |cos wo| / pdf, 0 where the sampler fails) and
-    // whether the ray passed through the mask (then the direction is -wi).
-    m.def("surface_sample", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &u, std::array<double, 2> uv) {
-        const std::function<bool(int)> has_map = [&](int b) {
-            const Layer &layer = s.bsdfs.at(size_t(b)).layer;
-            if (std::holds_alternative<NormalMapLayer>(layer) || std::holds_alternative<BumpMapLayer>(layer))
-                return true;
-            if (const auto *blend = std::get_if<BlendLayer>(&layer)) return has_map(blend->a) || has_map(blend->b);
-            if (const auto *mask = std::get_if<MaskLayer>(&layer)) return has_map(mask->nested);
-            return false;
-        };
-        if (has_map(bsdf)) throw std::invalid_argument("surface_sample takes blends and masks, not maps");
+    // A layered BSDF's samples where the ray (origin, direction) meets the scene: per row of
+    // u (layer choice, lobe, 2D), the direction (in the resolved shading frame, as wi), the
+    // weight (f |cos wo| / pdf, 0 where the sampler fails) and whether the ray passed
+    // straight through (then the direction is -wi).
+    m.def("surface_sample", [](Scene &s, int bsdf, Array3 wi, const DoubleArray &u, Array3 origin, Array3 direction) {
         Intersection its;
-        its.n = its.ns = Vec3(0, 0, 1);
-        its.uv = {uv[0], uv[1]};
+        if (!s.intersect(Ray{vec(origin), normalize(vec(direction))}, its))
+            throw std::invalid_argument("the ray meets nothing");
         const Vec3 w = normalize(vec(wi));
         const size_t n = size_t(u.shape(0));
         py::array_t<double> dirs({n, size_t(3)}), weights({n, size_t(3)});

@@ -225,3 +225,35 @@ def test_animation_render_writes_every_frame(blank, tmp_path):
     bpy.ops.render.render(animation=True)
     first, second = (volpath.read_exr(tmp_path / f"anim_{f:04d}.exr") for f in (1, 2))
     assert first.mean() > 0 and not np.array_equal(first, second)  # the sun moved
+
+
+@pytest.mark.parametrize("visible_camera", [False, True])
+def test_area_lights_are_not_geometry(blank, visible_camera):
+    """An area light between the sun and the floor casts no shadow, as in Cycles (its quad
+    lets every ray through); the camera, looking up through it at a grey world, sees the
+    light's emission only if its visible_camera says so."""
+    bpy.ops.mesh.primitive_plane_add(size=20)
+    bpy.context.object.data.materials.append(material("floor", Base_Color=(0.8, 0.8, 0.8, 1)))
+    bpy.ops.object.light_add(type="SUN")
+    bpy.context.object.data.energy, bpy.context.object.data.angle = 3, 0
+    add_camera(blank, location=(0, 0, 6), rotation=(0, 0, 0))
+    set_background(blank, (0.2, 0.2, 0.2))
+
+    def floor_image():
+        return volpath.render(volpath.load_dict(export_scene(depsgraph()).scene), spp=4, seed=1, threads=1)
+
+    unlit = floor_image()
+    bpy.ops.object.light_add(type="AREA", location=(0, 0, 2))
+    light = bpy.context.object
+    light.data.size, light.data.energy = 3, 1e-6  # fills the view, adds nothing
+    light.visible_camera = visible_camera
+    entry = export_scene(depsgraph()).scene["Area"]
+    assert entry["bsdf"] == {"type": "null"} and entry["camera_visible"] is visible_camera
+    np.testing.assert_allclose(floor_image(), unlit, rtol=0.02)  # black where it cast a shadow
+    # From below, looking up at its face: the world behind it, plus its radiance if the
+    # camera sees it (the ray goes on through the light, as Cycles' does).
+    light.data.energy = 100
+    blank.camera.location, blank.camera.rotation_euler = (0, 0, 0.5), (math.pi, 0, 0)
+    up = floor_image()[12:20, 20:28].mean()
+    radiance = 100 / (math.pi * 9)
+    assert up == pytest.approx(0.2 + (radiance if visible_camera else 0), rel=1e-3)

@@ -24,7 +24,14 @@ CAMERA = {"type": "perspective", "fov": 20, "film": {"type": "hdrfilm", "width":
 
 
 def loaded(bsdf, **extra):
-    return volpath.load_dict({"type": "scene", "camera": CAMERA, "shape": {"type": "sphere", "bsdf": bsdf}, **extra})
+    """The BSDF on the rectangle z = 0, |x|, |y| <= 1 (uv = ((x + 1) / 2, (y + 1) / 2))."""
+    return volpath.load_dict({"type": "scene", "camera": CAMERA, "shape": {"type": "rectangle", "bsdf": bsdf}, **extra})
+
+
+def samples(scene, wi, u, uv=(0.5, 0.5)):
+    """surface_sample where a ray from above meets the rectangle at uv."""
+    origin = (2 * uv[0] - 1, 2 * uv[1] - 1, 1.0)
+    return _core.surface_sample(scene.native, top(scene), wi, u, origin, (0.0, 0.0, -1.0))
 
 
 def top(scene):
@@ -39,7 +46,7 @@ def uniforms(n, dims=4, seed=1):
 def test_blend_samples_its_mixture(wi):
     """The directions a blend draws follow (1 - w) pdf_a + w pdf_b (chi-square)."""
     scene = loaded({"type": "blendbsdf", "weight": 0.3, "a": {"type": "diffuse"}, "b": ROUGH_METAL})
-    dirs, weights, passed = _core.surface_sample(scene.native, top(scene), wi, uniforms(N), (0.5, 0.5))
+    dirs, weights, passed = samples(scene, wi, uniforms(N))
     assert not passed.any()
     ok = weights.max(axis=1) > 0
 
@@ -57,7 +64,7 @@ def test_blend_weight_from_a_texture_chooses_per_point():
     scene = loaded({"type": "blendbsdf", "weight": checker, "a": {"type": "diffuse"}, "b": mirror})
     n, wi = 20_000, (0.0, 0.0, 1.0)
     for uv, w in (((0.25, 0.25), 0.9), ((0.75, 0.25), 0.1)):
-        dirs, _, _ = _core.surface_sample(scene.native, top(scene), wi, uniforms(n), uv)
+        dirs, _, _ = samples(scene, wi, uniforms(n), uv)
         share = np.mean(dirs[:, 2] > 1 - 1e-9)  # the mirror's reflection of normal incidence
         assert abs(share - w) < 5 * math.sqrt(w * (1 - w) / n), (uv, share)
 
@@ -66,7 +73,7 @@ def test_blend_weight_from_a_texture_chooses_per_point():
 def test_mask_passes_one_minus_opacity_and_samples_the_rest(opacity):
     scene = loaded({"type": "mask", "opacity": opacity, "inner": {"type": "diffuse", "reflectance": 0.8}})
     wi = (0.3, 0.1, 0.9)
-    dirs, weights, passed = _core.surface_sample(scene.native, top(scene), wi, uniforms(N), (0.5, 0.5))
+    dirs, weights, passed = samples(scene, wi, uniforms(N))
     assert abs(passed.mean() - (1 - opacity)) < 5 * math.sqrt(opacity * (1 - opacity) / N)
     np.testing.assert_allclose(weights[~passed], 0.8)
     pdf = lambda d: opacity * _core.bsdf_pdf(scene.native, 0, wi, d)  # noqa: E731

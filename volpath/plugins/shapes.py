@@ -46,6 +46,8 @@ def build(b, d):
         exterior=exterior,
         medium_interface=medium_interface,
         radiance=None if radiance is None else tuple(radiance),
+        # Volpath's: camera rays pass through the shape (Blender's lights; Mitsuba has none).
+        camera_visible=p.bool("camera_visible", True),
     )
     flip = p.bool("flip_normals", False)
     if p.type == "sphere":

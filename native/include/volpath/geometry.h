@@ -54,12 +54,9 @@ struct Box {
 struct Intersection {
     Real t = kInfinity;
     Vec3 p;
-    Vec3 n;   // geometric normal, unit, on the shape's front side
-    Vec3 ns;  // shading normal, on the same side as n
-    // Texture coordinates: a mesh's, interpolated (its barycentrics where it has none, as
-    // in Mitsuba); a sphere's longitude / (2 pi) and polar angle / pi; a box face's as on
-    // Mitsuba's cube.
-    Vec2 uv;
+    Vec3 n;     // geometric normal, unit, on the shape's front side
+    Vec3 ns;    // shading normal, on the same side as n
+    Vec2 bary;  // a triangle's barycentric coordinates b1, b2 (meshes); see Geometry::uv
     int shape = -1;
     uint32_t prim = 0;
 };
@@ -83,6 +80,10 @@ public:
     int add_box(const Box &box);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
+    // Texture coordinates at a hit, worked out only where a texture or a layer asks for
+    // them: a mesh's, interpolated (its barycentrics where it has none, as in Mitsuba); a
+    // sphere's longitude / (2 pi) and polar angle / pi; a box face's as on Mitsuba's cube.
+    Vec2 uv(const Intersection &its) const;
     // The surface's derivatives dp/du and dp/dv at a hit, for its texture coordinates (a
     // mesh's, or its barycentrics; a sphere's; a box face's). Where uv does not vary (a
     // degenerate triangle, a sphere's pole), any two tangents orthogonal to its.n.

@@ -20,6 +20,9 @@ struct ShapeInfo {
     // leaving through the front (along the normal) enters `exterior`, else `interior`.
     bool medium_interface = false;
     int interior = -1, exterior = -1;
+    // False: camera rays pass through the shape, emission and all (Blender's lights, which
+    // Cycles hides from the camera unless asked); other rays meet it as usual.
+    bool camera_visible = true;
 };
 
 // Mitsuba's perspective camera: looks along +z of `to_world`, +x of the camera points to

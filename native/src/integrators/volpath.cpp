@@ -185,7 +185,8 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         // to draw: both the transmittance and the unidirectional pdf take it.
         if (hit) {
             const int bsdf = scene.shapes[its.shape].bsdf;
-            const Real pass = is_null(scene.bsdfs[size_t(bsdf)]) ? 1 : surface_pass(scene, bsdf, its.uv);
+            const BSDF &b = scene.bsdfs[size_t(bsdf)];
+            const Real pass = is_null(b) ? 1 : is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its)) : 0;
             if (pass == 0) return Spectrum(0.0);
             if (pass < 1) T_ray *= pass, r_u *= pass;
         }
@@ -776,25 +777,30 @@ void Path::add_infinite_lights(const Intersection &its) {
 // sampled direction with Russian roulette.
 Step Path::at_surface(const Intersection &its) {
     const ShapeInfo &shape = scene.shapes[its.shape];
-    if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
-        const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-        add_emission(area.radiance, shape.light,
-                     light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
-    }
-    SurfacePoint surface;
-    const bool layered = is_layered(scene.bsdfs[size_t(shape.bsdf)]);
-    surface_at(scene, shape.bsdf, its, layered ? sampler.next_1d() : 0, surface);
-    if (!surface.bsdf) {
-        // Through a mask: drawn with probability `pass`, which NEE's shadow rays multiply
-        // by instead (see sample_direct).
-        r_l /= surface.pass;
-    }
-    if (!surface.bsdf || is_null(*surface.bsdf)) {
+    // Straight on through: into the medium beyond a boundary, past a shape hidden from the
+    // camera (camera rays only), through a mask.
+    const auto pass_through = [&] {
         if (++null_crossings > kMaxNullCrossings) return Step::Ended;
         medium = medium_after_crossing(shape, ray.d, its.n, medium);
         const Real t_left = ray.t_max - its.t;
         ray = spawn_ray(its.p, its.n, ray.d, t_left);
         return Step::NewRay;
+    };
+    if (depth == 0 && !shape.camera_visible) return pass_through();
+    if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
+        const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
+        add_emission(area.radiance, shape.light,
+                     light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
+    }
+    const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];
+    if (is_null(given)) return pass_through();
+    SurfacePoint surface;
+    surface_at(scene, shape.bsdf, its, is_layered(given) ? sampler.next_1d() : 0, surface);
+    if (!surface.bsdf) {
+        // Through a mask: drawn with probability `pass`, which NEE's shadow rays multiply
+        // by instead (see sample_direct).
+        r_l /= surface.pass;
+        return pass_through();
     }
     if (!feat.scatter) return Step::Ended;
     if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) return Step::Ended;

@@ -42,6 +42,10 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
         Intersection its;
         if (!scene.intersect(ray, its)) break;
         const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
+        if (!shape.camera_visible) {
+            ray = spawn_ray(its.p, its.n, ray.d);
+            continue;
+        }
         if (shape.light >= 0) return {Spectrum(1.0), Vec3(0.0), true, its.p};
         if (shape.bsdf >= 0) {
             // Blends and masks as the middle of their choices would have them.

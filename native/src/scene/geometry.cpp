@@ -414,6 +414,27 @@ int box_face_axis(const Vec3 &q) {
 
 }  // namespace
 
+Vec2 Geometry::uv(const Intersection &its) const {
+    const ShapeGeometry &s = shapes[size_t(its.shape)];
+    if (s.kind == ShapeGeometry::Kind::Box) {
+        const Vec3 q = boxes[size_t(s.index)].to_local.point(its.p);
+        const int a = box_face_axis(q);
+        const int *f = kFaceUV[a][q[a] < 0];
+        return {(1 + f[1] * q[f[0]]) * 0.5, (1 + f[3] * q[f[2]]) * 0.5};
+    }
+    if (s.kind == ShapeGeometry::Kind::Sphere) {
+        const Vec3 n = normalize(its.p - spheres[size_t(s.index)].center);
+        const Real phi = std::atan2(n.y, n.x);
+        return {(phi < 0 ? phi + 2 * kPi : phi) / (2 * kPi), std::acos(std::clamp(n.z, Real(-1), Real(1))) / kPi};
+    }
+    const TriangleMesh &m = meshes[size_t(s.index)];
+    if (m.uvs.empty()) return its.bary;
+    const auto &tri = m.triangles[its.prim];
+    const Real b1 = its.bary.x, b2 = its.bary.y, b0 = 1 - b1 - b2;
+    const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
+    return {t0.x * b0 + t1.x * b1 + t2.x * b2, t0.y * b0 + t1.y * b1 + t2.y * b2};
+}
+
 void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) const {
     const ShapeGeometry &s = shapes[size_t(its.shape)];
     dpdu = dpdv = Vec3(0.0);
@@ -466,15 +487,11 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         const int a = box_face_axis(q);
         const Vec3 &n = box.normals[a];
         its.n = its.ns = (q[a] < 0) != box.flip_normals ? -n : n;
-        const int *f = kFaceUV[a][q[a] < 0];
-        its.uv = {(1 + f[1] * q[f[0]]) * 0.5, (1 + f[3] * q[f[2]]) * 0.5};
     } else if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
         const Vec3 n = normalize(ray.at(hit.t) - sp.center);
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
         its.n = its.ns = sp.flip_normals ? -n : n;
-        const Real phi = std::atan2(n.y, n.x);
-        its.uv = {(phi < 0 ? phi + 2 * kPi : phi) / (2 * kPi), std::acos(std::clamp(n.z, Real(-1), Real(1))) / kPi};
     } else {
         const TriangleMesh &m = meshes[s.index];
         const auto &tri = m.triangles[prim.index];
@@ -487,12 +504,7 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
             const Real len = length(ns);
             if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
         }
-        if (m.uvs.empty()) {
-            its.uv = {hit.b1, hit.b2};
-        } else {
-            const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
-            its.uv = {t0.x * hit.b0 + t1.x * hit.b1 + t2.x * hit.b2, t0.y * hit.b0 + t1.y * hit.b1 + t2.y * hit.b2};
-        }
+        its.bary = {hit.b1, hit.b2};
     }
     its.shape = prim.shape;
     its.prim = prim.index;
