@@ -80,6 +80,8 @@ public:
     int add_box(const Box &box);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
+    // The closest hit on any shape but `skip`.
+    bool intersect_except(const Ray &ray, int skip, Intersection &its) const;
     // Texture coordinates at a hit, worked out only where a texture or a layer asks for
     // them: a mesh's, interpolated (its barycentrics where it has none, as in Mitsuba); a
     // sphere's longitude / (2 pi) and polar angle / pi; a box face's as on Mitsuba's cube.
@@ -144,6 +146,9 @@ private:
     };
     bool intersect_primitive(const Primitive &p, const Ray &ray, const PreparedRay &prepared, Real t_max,
                              Hit &hit) const;
+    // The BVH traversal, testing only the primitives of shapes `accept(shape)` takes.
+    template <typename Accept>
+    bool traverse(const Ray &ray, Intersection &its, Accept &&accept) const;
     // A sphere's or box's entry and exit distances (t0 <= t1) along the whole line; inv_d:
     // the direction's inverse if the caller has it (else worked out where needed).
     bool solid_roots(uint32_t prim, const Ray &ray, const Vec3 *inv_d, Real &t0, Real &t1) const;

@@ -90,6 +90,11 @@ struct Scene {
         if (medium != enclosed_medium && geometry.outside_enclosure(ray)) return false;
         return geometry.intersect(ray, its);
     }
+    // The surface that lies on a medium's boundary where the ray crosses it at `its` (a box
+    // of smoke resting on the floor), if any: within a few ray epsilons of the crossing, of
+    // another shape whose BSDF is not null. Such a surface is inside the medium: the ray
+    // meets it before it crosses (out.t is on `ray`).
+    bool surface_on_boundary(const Ray &ray, const Intersection &its, Intersection &out) const;
     // The medium inside the enclosure's interface, where rays need not test for leaving it
     // (-2: none). Set by build().
     int enclosed_medium = -2;

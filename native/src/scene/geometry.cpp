@@ -511,6 +511,15 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
 }
 
 bool Geometry::intersect(const Ray &ray, Intersection &its) const {
+    return traverse(ray, its, [](int) { return true; });
+}
+
+bool Geometry::intersect_except(const Ray &ray, int skip, Intersection &its) const {
+    return traverse(ray, its, [skip](int shape) { return shape != skip; });
+}
+
+template <typename Accept>
+bool Geometry::traverse(const Ray &ray, Intersection &its, Accept &&accept) const {
     if (nodes_.empty()) return false;
     const PreparedRay prepared(ray.d);
     const Vec3 &inv_d = prepared.inv_d;
@@ -534,8 +543,10 @@ bool Geometry::intersect(const Ray &ray, Intersection &its) const {
                            (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
-                for (uint32_t i = 0; i < node.count; ++i)
-                    hit |= intersect_primitive(prims_[node.first + i], ray, prepared, closest.t, closest);
+                for (uint32_t i = 0; i < node.count; ++i) {
+                    const Primitive &prim = prims_[node.first + i];
+                    if (accept(prim.shape)) hit |= intersect_primitive(prim, ray, prepared, closest.t, closest);
+                }
             } else {
                 // Near child first.
                 if (negative[node.axis]) {

@@ -280,4 +280,15 @@ std::vector<std::pair<std::string, size_t>> Scene::memory() const {
             {"textures", texture_bytes_total}};
 }
 
+bool Scene::surface_on_boundary(const Ray &ray, const Intersection &its, Intersection &out) const {
+    // Along the ray, a few epsilons of distance from the plane on either side (more where
+    // the ray grazes it, up to a limit).
+    const Real delta = 4 * ray_epsilon(its.p) / std::max(std::abs(dot(ray.d, its.n)), Real(1e-2));
+    const Ray probe{its.p - ray.d * delta, ray.d, 0, 2 * delta};
+    if (!geometry.intersect_except(probe, its.shape, out) || is_null(bsdfs[size_t(shapes[size_t(out.shape)].bsdf)]))
+        return false;
+    out.t = its.t + (out.t - delta);
+    return true;
+}
+
 }  // namespace volpath
