@@ -200,6 +200,11 @@ void bind_probes(py::module_ &m) {
         },
         py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none());
     // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
+    // Per shape: whether it is a null medium boundary that a surface may lie on.
+    m.def("boundary_with_contact", [](Scene &s) {
+        s.build();
+        return std::vector<bool>(s.boundary_with_contact.begin(), s.boundary_with_contact.end());
+    });
     m.def("medium_containers", [](Scene &s) {
         if (!s.built) s.build();
         return s.medium_container;

@@ -65,3 +65,12 @@ def test_a_shared_plane_renders_as_a_zero_gap(touching, apart):
     assert np.all(np.isfinite(a)) and np.all(np.isfinite(b))
     se = math.sqrt(a.var(ddof=1) / len(a) + b.var(ddof=1) / len(b))
     assert abs(a.mean() - b.mean()) < 5 * se + 1e-4 * b.mean(), (a.mean(), b.mean(), se)
+
+
+def test_only_boundaries_a_surface_may_lie_on_look_around():
+    """The look costs a ray query per crossing: only flat null boundaries that a flat
+    surface may touch pay it (none of the bench scenes' do)."""
+    from volpath import _core
+
+    assert _core.boundary_with_contact(scene().native) == [False, True]  # the floor, the box
+    assert _core.boundary_with_contact(scene(box_gap=GAP).native) == [False, False]

@@ -102,6 +102,9 @@ public:
     bool outside_enclosure(const Ray &ray) const { return enclosure_ != kNoPrim && moves_away_from_enclosure(ray); }
     Bounds bounds() const;
     Bounds shape_bounds(int shape) const;
+    // Whether the box `b`, grown by `eps`, may reach the surface of the shape (a sphere's or
+    // box's surface exactly; a mesh's wherever its bounds overlap `b`).
+    bool may_touch_surface(int shape, const Bounds &b, Real eps) const;
     // Bytes held: the shapes as given (meshes' vertices, normals and triangles, spheres,
     // boxes) and the acceleration structure (BVH nodes, primitives, their vertices).
     size_t shape_bytes() const;

@@ -95,6 +95,10 @@ struct Scene {
     // another shape whose BSDF is not null. Such a surface is inside the medium: the ray
     // meets it before it crosses (out.t is on `ray`).
     bool surface_on_boundary(const Ray &ray, const Intersection &its, Intersection &out) const;
+    // Per shape, set by build(): whether it is a flat null medium boundary (a mesh or box)
+    // that another flat surface may lie on (the only boundaries surface_on_boundary looks
+    // around: the look costs a short ray query per crossing).
+    std::vector<uint8_t> boundary_with_contact;
     // The medium inside the enclosure's interface, where rays need not test for leaving it
     // (-2: none). Set by build().
     int enclosed_medium = -2;

@@ -225,6 +225,34 @@ Bounds Geometry::shape_bounds(int shape) const {
     return primitive_bounds({shape, 0});
 }
 
+bool Geometry::may_touch_surface(int shape, const Bounds &b, Real eps) const {
+    const ShapeGeometry &g = shapes[size_t(shape)];
+    const Vec3 lo = b.lo - Vec3(eps), hi = b.hi + Vec3(eps);
+    if (g.kind == ShapeGeometry::Kind::Sphere) {
+        const Sphere &s = spheres[size_t(g.index)];
+        const Vec3 nearest = min(max(s.center, lo), hi);
+        const Vec3 farthest(std::abs(lo.x - s.center.x) > std::abs(hi.x - s.center.x) ? lo.x : hi.x,
+                            std::abs(lo.y - s.center.y) > std::abs(hi.y - s.center.y) ? lo.y : hi.y,
+                            std::abs(lo.z - s.center.z) > std::abs(hi.z - s.center.z) ? lo.z : hi.z);
+        return length(nearest - s.center) <= s.radius && length(farthest - s.center) >= s.radius;
+    }
+    if (g.kind == ShapeGeometry::Kind::Box) {
+        // In the box's own space, where it is [-1, 1]^3: the corners' bounds reach its faces
+        // if they overlap it without lying strictly inside.
+        const Box &box = boxes[size_t(g.index)];
+        Bounds local;
+        for (int c = 0; c < 8; ++c)
+            local.extend(box.to_local.point({c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z}));
+        const bool overlaps = local.lo.x <= 1 && local.lo.y <= 1 && local.lo.z <= 1 && local.hi.x >= -1 &&
+                              local.hi.y >= -1 && local.hi.z >= -1;
+        const bool inside =
+            local.lo.x > -1 && local.lo.y > -1 && local.lo.z > -1 && local.hi.x < 1 && local.hi.y < 1 && local.hi.z < 1;
+        return overlaps && !inside;
+    }
+    const Bounds m = shape_bounds(shape);
+    return lo.x <= m.hi.x && lo.y <= m.hi.y && lo.z <= m.hi.z && hi.x >= m.lo.x && hi.y >= m.lo.y && hi.z >= m.lo.z;
+}
+
 Bounds Geometry::bounds() const {
     if (nodes_.empty()) return {};
     const Real *b = nodes_[0].bounds;

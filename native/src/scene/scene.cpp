@@ -143,6 +143,24 @@ void Scene::build() {
     for (size_t m = 0; m < media.size(); ++m) {
         if (interfaces[m] != 1) medium_container[m] = -1;
     }
+    // Only flat pieces can share an area with a boundary: spheres touch others at points.
+    boundary_with_contact.assign(shapes.size(), 0);
+    std::vector<int> boundaries, surfaces;
+    for (int i = 0; i < int(shapes.size()); ++i) {
+        if (geometry.shapes[size_t(i)].is_sphere()) continue;
+        const bool null = is_null(bsdfs[size_t(shapes[i].bsdf)]);
+        if (null && shapes[i].medium_interface) boundaries.push_back(i);
+        if (!null) surfaces.push_back(i);
+    }
+    if (!boundaries.empty()) {
+        std::vector<Bounds> surface_bounds;
+        for (int j : surfaces) surface_bounds.push_back(geometry.shape_bounds(j));
+        const Bounds all = geometry.bounds();
+        const Real eps = 1e-9 * std::max(max_component(abs(all.lo)), max_component(abs(all.hi))) + 1e-12;
+        for (int i : boundaries)
+            for (const Bounds &b : surface_bounds)
+                boundary_with_contact[size_t(i)] |= geometry.may_touch_surface(i, b, eps);
+    }
     const int enclosure = geometry.enclosure();
     enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
     for (Light &l : lights) prepare_light(l, geometry);
@@ -281,6 +299,7 @@ std::vector<std::pair<std::string, size_t>> Scene::memory() const {
 }
 
 bool Scene::surface_on_boundary(const Ray &ray, const Intersection &its, Intersection &out) const {
+    if (!boundary_with_contact[size_t(its.shape)]) return false;
     // Along the ray, a few epsilons of distance from the plane on either side (more where
     // the ray grazes it, up to a limit).
     const Real delta = 4 * ray_epsilon(its.p) / std::max(std::abs(dot(ray.d, its.n)), Real(1e-2));
