@@ -319,7 +319,25 @@ def test_roughdielectric_loads_as_mitsuba_and_lajolla_write_it():
         volpath.load_string(S.scene(S.camera(res=4), glass.format(aniso)))
 
 
-def test_named_conductors_ask_for_eta_and_k():
-    metal = '<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>'
-    with pytest.raises(volpath.SceneError, match=r"<string>:\d+: .*named conductor 'Au'.*'eta' and 'k'"):
-        volpath.load_string(S.scene(S.camera(res=4), metal))
+def test_named_conductors_reflect_their_measured_index():
+    """Mitsuba's named metals from measured eta and k (volpath/data/metals.json): a smooth
+    conductor's sample weight head-on is the Fresnel reflectance of the table's index at
+    the wavelengths RGB stands for; gold reflects red most and blue least. Unknown names,
+    and a name with an explicit index, are errors naming the place."""
+    from volpath import _core, metals
+    from volpath.plugins.params import RGB_WAVELENGTHS
+
+    metal = '<shape type="sphere"><bsdf type="conductor"><string name="material" value="{}"/>{}</bsdf></shape>'
+    u = np.random.default_rng(1).random((8, 3))
+    for name in ("Au", "Ag", "Cu_palik"):
+        scene = volpath.load_string(S.scene(S.camera(res=4), metal.format(name, "")))
+        weight = _core.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u).mean(axis=0)
+        eta, k = metals.eta_k(name, RGB_WAVELENGTHS)
+        eta, k = eta / 1.000277, k / 1.000277
+        np.testing.assert_allclose(weight, ((eta - 1) ** 2 + k**2) / ((eta + 1) ** 2 + k**2), rtol=1e-6)
+        if name == "Au":
+            assert weight[0] > weight[1] > weight[2] and weight[0] > 0.9 and weight[2] < 0.5
+    with pytest.raises(volpath.SceneError, match=r"<string>:\d+: .*unknown conductor material 'Unobtainium'.*Au"):
+        volpath.load_string(S.scene(S.camera(res=4), metal.format("Unobtainium", "")))
+    with pytest.raises(volpath.SceneError, match="either 'material' or 'eta' and 'k'"):
+        volpath.load_string(S.scene(S.camera(res=4), metal.format("Au", '<rgb name="k" value="1, 1, 1"/>')))

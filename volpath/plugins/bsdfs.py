@@ -1,11 +1,14 @@
-"""BSDF plugins: null, diffuse, dielectric, rough plastic, principled, twosided."""
+"""BSDF plugins: null, diffuse, (rough, thin) dielectric, (rough) conductor, (rough)
+plastic, principled, twosided, and the layers: blendbsdf, mask, normalmap, bumpmap."""
 
 import warnings
 
 import numpy as np
 
+from .. import metals
 from ..errors import SceneError, SceneWarning, where
 from . import kind_of, textures
+from .params import RGB_WAVELENGTHS
 from .textures import Textured, value
 
 # Stand-ins for textured colours in the native BSDF as created (every hit replaces them).
@@ -64,11 +67,7 @@ def build(b, d, twosided=False):
         index = n.add_bsdf_roughdielectric(eta, value(alpha, 0.1))
         textures.bind(b, index, alpha=alpha)
     elif p.type in ("conductor", "roughconductor"):
-        # Named metals need their spectral tables, which Volpath does not carry yet.
-        material = p.str("material", "none")
-        if material != "none":
-            raise p.error(f"named conductor '{material}' is not available: give its 'eta' and 'k' (or 'none')")
-        eta, k = p.rgb("eta", 0.0), p.rgb("k", 0.0)
+        eta, k = _conductor_index(b, p)
         ext = ior(p, "ext_eta", 1.000277) if p.has("ext_eta") else 1.000277
         alpha = ggx_alpha(b, p) if p.type == "roughconductor" else 0.0
         specular = textures.param(b, p, "specular_reflectance", 1.0)
@@ -220,6 +219,21 @@ def roughness(b, p, name, default):
     if isinstance(v, dict) and kind_of(b.resolve(v)) == "texture":
         return Textured(textures.build(b, v))
     return max(p.float(name, default, minimum=0.0), 1e-3)
+
+
+def _conductor_index(b, p):
+    """A conductor's (eta, k): a named metal's, measured, at the pass's wavelengths (in RGB,
+    at the wavelengths RGB values stand for), or given as `eta` and `k`; "none" is a
+    perfect mirror."""
+    material = p.str("material", "none")
+    if material == "none":
+        return p.rgb("eta", 0.0), p.rgb("k", 0.0)
+    if p.has("eta") or p.has("k"):
+        raise p.error("give either 'material' or 'eta' and 'k', not both")
+    index = metals.eta_k(material, RGB_WAVELENGTHS if b.wavelengths is None else b.wavelengths)
+    if index is None:
+        raise p.error(f"unknown conductor material '{material}' (expected none or one of: {', '.join(metals.names())})")
+    return index
 
 
 def ior(p, name, default):
