@@ -16,12 +16,25 @@ def sun_direction(obj):
     return convert.direction(-np.array(obj.matrix_world.to_3x3())[:, 2])
 
 
+# Blender's ray visibility flags (Object properties) that Volpath does not follow yet.
+VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission", "visible_shadow")
+
+
+def ignored_visibility(obj, report, kind, flags=VISIBILITY):
+    """Reports the object's ray visibility flags that are off and that Volpath ignores."""
+    off = [f.removeprefix("visible_") for f in flags if not getattr(obj, f, True)]
+    if off:
+        flags = ", ".join(off)
+        report.warn(f"{kind} '{obj.name}': ray visibility off for {flags} is not supported (visible to all rays)")
+
+
 def export(obj, matrix_world, report):
     """The emitter (or emitting shape) of one light instance, or None; unsupported lights
     are reported, never dropped silently."""
     light = obj.data
     color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
+    ignored_visibility(obj, report, "light", ("visible_diffuse", "visible_glossy", "visible_transmission"))
     if light.type == "POINT":
         if light.shadow_soft_size > 0:
             report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")

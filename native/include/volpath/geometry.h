@@ -54,9 +54,8 @@ struct Box {
 struct Intersection {
     Real t = kInfinity;
     Vec3 p;
-    Vec3 n;     // geometric normal, unit, on the shape's front side
-    Vec3 ns;    // shading normal, on the same side as n
-    Vec2 bary;  // a triangle's barycentric coordinates b1, b2 (meshes); see Geometry::uv
+    Vec3 n;   // geometric normal, unit, on the shape's front side
+    Vec3 ns;  // shading normal, on the same side as n
     int shape = -1;
     uint32_t prim = 0;
 };

@@ -82,13 +82,21 @@ struct Scene {
     // The same for a ray travelling in `medium` (-1: none), with no traversal from inside
     // the medium's container (see medium_container) or outside the scene's enclosure
     // (Geometry::enclosure), where there is nothing to hit.
+    // A surface that lies on a medium's boundary is met before the boundary is crossed
+    // (surface_on_boundary).
     bool intersect(const Ray &ray, Intersection &its, int medium) const {
-        if (medium >= 0 && medium_container[size_t(medium)] >= 0) {
-            if (const auto hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its))
-                return *hit;
+        std::optional<bool> hit;
+        if (medium >= 0 && medium_container[size_t(medium)] >= 0)
+            hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its);
+        if (!hit) {
+            if (medium != enclosed_medium && geometry.outside_enclosure(ray)) return false;
+            hit = geometry.intersect(ray, its);
         }
-        if (medium != enclosed_medium && geometry.outside_enclosure(ray)) return false;
-        return geometry.intersect(ray, its);
+        if (*hit && boundary_with_contact[size_t(its.shape)]) {
+            Intersection on;
+            if (surface_on_boundary(ray, its, on)) its = on;
+        }
+        return *hit;
     }
     // The surface that lies on a medium's boundary where the ray crosses it at `its` (a box
     // of smoke resting on the floor), if any: within a few ray epsilons of the crossing, of

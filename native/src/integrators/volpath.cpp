@@ -184,11 +184,6 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         // mask passes the ray with a probability that the path through it would have had
         // to draw: both the transmittance and the unidirectional pdf take it.
         if (hit) {
-            // A surface on a medium's boundary blocks as if it came first (see at_surface).
-            if (scene.shapes[its.shape].medium_interface && is_null(scene.bsdfs[scene.shapes[its.shape].bsdf])) {
-                Intersection on;
-                if (scene.surface_on_boundary(ray, its, on)) its = on;
-            }
             const int bsdf = scene.shapes[its.shape].bsdf;
             const BSDF &b = scene.bsdfs[size_t(bsdf)];
             const Real pass = is_null(b) ? 1 : is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its)) : 0;
@@ -798,11 +793,7 @@ Step Path::at_surface(const Intersection &its) {
                      light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
     const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];
-    if (is_null(given)) {
-        Intersection on;
-        if (shape.medium_interface && scene.surface_on_boundary(ray, its, on)) return at_surface(on);
-        return pass_through();
-    }
+    if (is_null(given)) return pass_through();
     SurfacePoint surface;
     surface_at(scene, shape.bsdf, its, is_layered(given) ? sampler.next_1d() : 0, surface);
     if (!surface.bsdf) {

@@ -455,10 +455,17 @@ Vec2 Geometry::uv(const Intersection &its) const {
         const Real phi = std::atan2(n.y, n.x);
         return {(phi < 0 ? phi + 2 * kPi : phi) / (2 * kPi), std::acos(std::clamp(n.z, Real(-1), Real(1))) / kPi};
     }
+    // The hit's barycentrics, worked out again from its point (an Intersection that carried
+    // them would be larger for every ray, textured or not).
     const TriangleMesh &m = meshes[size_t(s.index)];
-    if (m.uvs.empty()) return its.bary;
     const auto &tri = m.triangles[its.prim];
-    const Real b1 = its.bary.x, b2 = its.bary.y, b0 = 1 - b1 - b2;
+    const Vec3 &p0 = m.positions[tri[0]], e1 = m.positions[tri[1]] - p0, e2 = m.positions[tri[2]] - p0;
+    const Vec3 d = its.p - p0;
+    const Real d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), det = d11 * d22 - d12 * d12;
+    if (!(det > 0)) return m.uvs.empty() ? Vec2{} : m.uvs[tri[0]];
+    const Real b1 = (d22 * dot(d, e1) - d12 * dot(d, e2)) / det, b2 = (d11 * dot(d, e2) - d12 * dot(d, e1)) / det;
+    if (m.uvs.empty()) return {b1, b2};
+    const Real b0 = 1 - b1 - b2;
     const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
     return {t0.x * b0 + t1.x * b1 + t2.x * b2, t0.y * b0 + t1.y * b1 + t2.y * b2};
 }
@@ -532,7 +539,6 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
             const Real len = length(ns);
             if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
         }
-        its.bary = {hit.b1, hit.b2};
     }
     its.shape = prim.shape;
     its.prim = prim.index;

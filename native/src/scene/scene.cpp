@@ -299,7 +299,6 @@ std::vector<std::pair<std::string, size_t>> Scene::memory() const {
 }
 
 bool Scene::surface_on_boundary(const Ray &ray, const Intersection &its, Intersection &out) const {
-    if (!boundary_with_contact[size_t(its.shape)]) return false;
     // Along the ray, a few epsilons of distance from the plane on either side (more where
     // the ray grazes it, up to a limit).
     const Real delta = 4 * ray_epsilon(its.p) / std::max(std::abs(dot(ray.d, its.n)), Real(1e-2));
