@@ -179,7 +179,8 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
         if uvs is not None:
             shape["uvs"] = uvs
         if mat.radiance is not None:
-            shape["emitter"] = {"type": "area", "radiance": convert.rgb(mat.radiance)}
+            # Cycles' emission shaders light both faces of a mesh.
+            shape["emitter"] = {"type": "area", "radiance": convert.rgb(mat.radiance), "twosided": True}
         if interior is not None:
             shape["interior"] = interior
             if exterior is not None:

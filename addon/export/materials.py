@@ -5,7 +5,8 @@ What maps (in Blender's radiometry, as Cycles renders it; lights.py gives the li
                        Level give the coat's F0), diffuse when F0 and metallic are 0, or,
                        with transmission, glass; emission colour x strength -> area emitter
   Diffuse / Glass / Emission -> diffuse / dielectric / area emitter on a black diffuse
-  Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - absorption colour);
+  Principled Volume -> sigma_s = density colour, sigma_a = density (1 - colour)(1 - sqrt(absorption
+                       colour)) (the square root as Cycles' images show it: bench/parity.py);
                        emission E (per unit length) -> Le = E / sigma_a; blackbody -> Le = intensity x
                        Planck radiance at the temperature (times the temperature grid, for volumes)
   Volume Scatter    -> sigma_s = density colour;  Volume Absorption -> sigma_a = density (1 - colour)
@@ -126,7 +127,8 @@ def _surface(node, owner, report, images):
     elif kind == "ShaderNodeBsdfDiffuse":
         bsdf = {"type": "diffuse", "reflectance": _colour(get.texture("Color"))}
     elif kind == "ShaderNodeBsdfGlass":
-        bsdf = _glass(get("IOR"), get("Roughness"))
+        colour = get("Color")  # Cycles' glass colour tints both lobes
+        bsdf = _glass(get("IOR"), get("Roughness"), reflectance=colour, transmittance=colour)
     elif kind == "ShaderNodeEmission":
         return {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}, get("Color") * get("Strength")
     else:
@@ -148,7 +150,8 @@ def _principled(get, owner, report):
         if get(name) > 0:
             report.warn(f"{owner}: '{name}' is not supported (ignored)")
     if get("Transmission Weight") >= 0.5:
-        return _glass(get("IOR"), get("Roughness")), radiance
+        # Cycles tints the transmitted light by the base colour.
+        return _glass(get("IOR"), get("Roughness"), transmittance=get("Base Color")), radiance
     base, metallic, rough = get.texture("Base Color"), get.texture("Metallic"), get.texture("Roughness")
     if not isinstance(metallic, dict):
         metallic = float(np.clip(metallic, 0, 1))
@@ -167,9 +170,15 @@ def _principled(get, owner, report):
     }, radiance
 
 
-def _glass(ior, roughness):
-    """Glass (or full transmission): smooth, or GGX with alpha = roughness^2."""
+def _glass(ior, roughness, reflectance=None, transmittance=None):
+    """Glass (or full transmission): smooth, or GGX with alpha = roughness^2; tinted."""
     d = {"type": "dielectric", "int_ior": max(ior, 1.0001), "ext_ior": 1.0}
+    if reflectance is not None and np.any(np.abs(reflectance - 1) > 1e-6):
+        d["specular_reflectance"] = convert.rgb(np.clip(reflectance, 0, 1))
+    if transmittance is not None and np.any(np.abs(transmittance - 1) > 1e-6):
+        # The square root per interface, so that light through a body (in and out) takes
+        # the colour once, as Cycles' images show (bench/parity.py).
+        d["specular_transmittance"] = convert.rgb(np.sqrt(np.clip(transmittance, 0, 1)))
     if roughness**2 >= 1e-3:
         d.update(type="roughdielectric", distribution="ggx", alpha=float(roughness) ** 2)
     return d
@@ -235,7 +244,7 @@ def _volume(node, owner, report):
     if kind == "ShaderNodeVolumePrincipled":
         density, color = get("Density"), np.clip(get("Color"), 0, 1)
         sigma_s = density * color
-        sigma_a = density * (1 - color) * np.clip(1 - get("Absorption Color"), 0, 1)
+        sigma_a = density * (1 - color) * np.clip(1 - np.sqrt(np.clip(get("Absorption Color"), 0, None)), 0, 1)
         tint = get("Blackbody Tint")
         if np.ptp(tint) > 1e-6:
             report.warn(f"{owner}: a coloured Blackbody Tint is not supported; using its mean")

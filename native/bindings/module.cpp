@@ -254,10 +254,11 @@ PYBIND11_MODULE(_core, m) {
             py::arg("reflectance"), py::arg("twosided") = false)
         .def(
             "add_bsdf_dielectric",
-            [](Scene &s, double eta) {
-                return s.add_bsdf({DielectricBSDF{eta}, false});
+            [](Scene &s, double eta, Array3 reflectance, Array3 transmittance) {
+                return s.add_bsdf({DielectricBSDF{eta, vec(reflectance), vec(transmittance)}, false});
             },
-            py::arg("eta"))
+            py::arg("eta"), py::arg("reflectance") = Array3{1.0, 1.0, 1.0},
+            py::arg("transmittance") = Array3{1.0, 1.0, 1.0})
         .def(
             "add_bsdf_roughplastic",
             [](Scene &s, Array3 diffuse, Array3 specular, double alpha, double eta, bool twosided) {
@@ -278,10 +279,12 @@ PYBIND11_MODULE(_core, m) {
             py::arg("eta"), py::arg("k"), py::arg("specular"), py::arg("alpha"), py::arg("twosided") = false)
         .def(
             "add_bsdf_roughdielectric",
-            [](Scene &s, double eta, double alpha) {
-                return s.add_bsdf({RoughDielectricBSDF{eta, std::max(alpha, 1e-4)}, false});
+            [](Scene &s, double eta, double alpha, Array3 reflectance, Array3 transmittance) {
+                return s.add_bsdf(
+                    {RoughDielectricBSDF{eta, std::max(alpha, 1e-4), vec(reflectance), vec(transmittance)}, false});
             },
-            py::arg("eta"), py::arg("alpha"))
+            py::arg("eta"), py::arg("alpha"), py::arg("reflectance") = Array3{1.0, 1.0, 1.0},
+            py::arg("transmittance") = Array3{1.0, 1.0, 1.0})
         .def(
             "add_bsdf_blend",
             [](Scene &s, int a, int b, double weight) {
@@ -417,7 +420,8 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions,
                const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
-               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, bool camera_visible) {
+               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, bool camera_visible,
+               bool emitter_twosided) {
                 TriangleMesh mesh;
                 mesh.positions = points(positions, "positions");
                 if (normals) mesh.normals = points(*normals, "normals");
@@ -435,23 +439,23 @@ PYBIND11_MODULE(_core, m) {
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
                 return s.add_shape_mesh(std::move(mesh),
                                         shape_info(bsdf, interior, exterior, medium_interface, camera_visible),
-                                        radiance ? &Le : nullptr);
+                                        radiance ? &Le : nullptr, emitter_twosided);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("uvs") = py::none(), py::arg("camera_visible") = true)
+            py::arg("uvs") = py::none(), py::arg("camera_visible") = true, py::arg("emitter_twosided") = false)
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
-               bool medium_interface, std::optional<Array3> radiance, bool camera_visible) {
+               bool medium_interface, std::optional<Array3> radiance, bool camera_visible, bool emitter_twosided) {
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
                 return s.add_shape_sphere(Sphere{vec(center), radius, flip},
                                           shape_info(bsdf, interior, exterior, medium_interface, camera_visible),
-                                          radiance ? &Le : nullptr);
+                                          radiance ? &Le : nullptr, emitter_twosided);
             },
             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("camera_visible") = true)
+            py::arg("camera_visible") = true, py::arg("emitter_twosided") = false)
         .def(
             "add_box",
             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,

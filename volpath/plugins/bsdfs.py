@@ -58,13 +58,15 @@ def build(b, d, twosided=False):
         textures.bind(b, index, reflectance=r)
     elif p.type in ("dielectric", "thindielectric"):
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
-        p.raw("specular_reflectance"), p.raw("specular_transmittance")
-        index = n.add_bsdf_dielectric(eta) if p.type == "dielectric" else n.add_bsdf_thindielectric(eta)
+        if p.type == "dielectric":
+            index = n.add_bsdf_dielectric(eta, *_glass_tints(p))
+        else:
+            p.raw("specular_reflectance"), p.raw("specular_transmittance")
+            index = n.add_bsdf_thindielectric(eta)
     elif p.type == "roughdielectric":
         alpha = ggx_alpha(b, p)
         eta = ior(p, "int_ior", 1.5046) / ior(p, "ext_ior", 1.000277)
-        p.raw("specular_reflectance"), p.raw("specular_transmittance")
-        index = n.add_bsdf_roughdielectric(eta, value(alpha, 0.1))
+        index = n.add_bsdf_roughdielectric(eta, value(alpha, 0.1), *_glass_tints(p))
         textures.bind(b, index, alpha=alpha)
     elif p.type in ("conductor", "roughconductor"):
         eta, k = _conductor_index(b, p)
@@ -219,6 +221,11 @@ def roughness(b, p, name, default):
     if isinstance(v, dict) and kind_of(b.resolve(v)) == "texture":
         return Textured(textures.build(b, v))
     return max(p.float(name, default, minimum=0.0), 1e-3)
+
+
+def _glass_tints(p):
+    """A dielectric's specular_reflectance and specular_transmittance (1: none)."""
+    return tuple(p.rgb("specular_reflectance", 1.0)), tuple(p.rgb("specular_transmittance", 1.0))
 
 
 def _conductor_index(b, p):

@@ -11,6 +11,7 @@ def build(b, d):
     p = b.params(d, "shape")
     to_world = p.transform()
     bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
+    emitter_twosided = False
     for key, v in d.items():
         if not isinstance(v, dict) or key == "to_world":
             continue
@@ -26,6 +27,7 @@ def build(b, d):
             if ep.type != "area":
                 raise ep.error("only 'area' emitters can be attached to shapes")
             radiance = ep.rgb("radiance", 1.0, emitted=True)
+            emitter_twosided = ep.bool("twosided", False)  # Volpath's: both faces emit (Blender's)
             ep.check()
         elif kind == "medium":
             if key not in ("interior", "exterior"):
@@ -48,6 +50,7 @@ def build(b, d):
         radiance=None if radiance is None else tuple(radiance),
         # Volpath's: camera rays pass through the shape (Blender's lights; Mitsuba has none).
         camera_visible=p.bool("camera_visible", True),
+        emitter_twosided=emitter_twosided,
     )
     flip = p.bool("flip_normals", False)
     if p.type == "sphere":
@@ -75,7 +78,7 @@ def build(b, d):
     elif p.type == "cube" and radiance is None and np.linalg.cond(to_world[:3, :3]) < 1e12:
         # An analytic box (one primitive); emitting or flattened cubes stay meshes.
         # Under a mirroring map the mesh's faces turn inward; the box's do too.
-        box_info = {k: v for k, v in common.items() if k != "radiance"}
+        box_info = {k: v for k, v in common.items() if k not in ("radiance", "emitter_twosided")}
         mirrored = np.linalg.det(to_world[:3, :3]) < 0
         b.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
         corners = transform_points(to_world, cube()[0])

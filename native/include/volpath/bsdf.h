@@ -17,9 +17,12 @@ struct NullBSDF {};
 struct DiffuseBSDF {
     Spectrum reflectance{0.5};
 };
-// Smooth dielectric interface; eta = interior / exterior index of refraction.
+// Smooth dielectric interface; eta = interior / exterior index of refraction. The tints
+// scale the reflected and the transmitted light (Mitsuba's specular_reflectance and
+// specular_transmittance; Blender's glass colours).
 struct DielectricBSDF {
     Real eta = 1.5046 / 1.000277;
+    Spectrum reflectance{1.0}, transmittance{1.0};
 };
 // A thin dielectric sheet (a window pane): light reflects off it, inter-reflections between
 // its two faces included, or passes straight through; eta = sheet / surroundings.
@@ -53,7 +56,8 @@ RoughPlasticBSDF rough_plastic(const Spectrum &diffuse, const Spectrum &specular
 // lajolla's `roughdielectric`). eta = interior / exterior.
 struct RoughDielectricBSDF {
     Real eta = 1.5046 / 1.000277;
-    Real alpha = 0.1;  // GGX roughness
+    Real alpha = 0.1;                               // GGX roughness
+    Spectrum reflectance{1.0}, transmittance{1.0};  // tints, as the smooth one's
 };
 
 using BSDFModel = std::variant<NullBSDF, DiffuseBSDF, DielectricBSDF, ThinDielectricBSDF, RoughPlasticBSDF,

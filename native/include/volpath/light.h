@@ -29,6 +29,8 @@ struct AreaLight {
     Distribution1D triangle_areas;  // meshes: choose a triangle by area
     Real area = 0;
     Vec3 center;  // area-weighted centroid: where distances drawn for the light aim
+    // Emits from both faces (Blender's emission shaders); else from the front (Mitsuba's).
+    bool twosided = false;
 };
 
 // Radiance arriving from infinity: a constant, or a latitude-longitude map (Mitsuba's

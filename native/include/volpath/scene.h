@@ -63,8 +63,9 @@ struct Scene {
     int add_texture(Texture t);
     // Makes one of the BSDF's parameters vary as `param` says (its texture added before).
     void bind_texture(int bsdf, const TexturedParam &param);
-    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance);
-    int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance);
+    // `radiance`: an area light on the shape (emitting from both faces if `twosided`).
+    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false);
+    int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false);
     int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
     int add_light(const Light &l);                           // counts point_and_directional
     // Replaces light i by another of its kind (an animation's sun); build() then redoes

@@ -113,9 +113,9 @@ struct Eval {
         if (m.h.z == 0) return Spectrum(0.0);
         const Real F = fresnel_dielectric(dot(wi, m.h), b.eta);
         const Real DG = ggx_d(b.alpha, m.h) * ggx_g1(b.alpha, wi, m.h) * ggx_g1(b.alpha, wo, m.h);
-        if (m.reflect) return Spectrum(DG * F / (4.0 * std::abs(wi.z)));
+        if (m.reflect) return b.reflectance * (DG * F / (4.0 * std::abs(wi.z)));
         const Real denom = sqr(dot(wo, m.h) + dot(wi, m.h) / m.etap) * std::abs(wi.z);
-        return Spectrum(DG * (1.0 - F) * std::abs(dot(wo, m.h) * dot(wi, m.h)) / denom / sqr(m.etap));
+        return b.transmittance * (DG * (1.0 - F) * std::abs(dot(wo, m.h) * dot(wi, m.h)) / denom / sqr(m.etap));
     }
     Spectrum operator()(const DielectricBSDF &) const { return Spectrum(0.0); }
     Spectrum operator()(const ThinDielectricBSDF &) const { return Spectrum(0.0); }
@@ -204,13 +204,13 @@ struct Sample {
         if (u_lobe < r) {
             out.wo = {-wi.x, -wi.y, wi.z};
             out.pdf = r;
-            out.weight = Spectrum(1.0);
+            out.weight = b.reflectance;
         } else {
             // Radiance is compressed into a smaller solid angle on entering: scale by eta_ti^2.
             const Real eta_ti = wi.z >= 0 ? 1.0 / b.eta : b.eta;
             out.wo = {-wi.x * eta_ti, -wi.y * eta_ti, cos_t};
             out.pdf = 1.0 - r;
-            out.weight = Spectrum(eta_ti * eta_ti);
+            out.weight = b.transmittance * (eta_ti * eta_ti);
         }
         return true;
     }

@@ -787,10 +787,11 @@ Step Path::at_surface(const Intersection &its) {
         return Step::NewRay;
     };
     if (depth == 0 && !shape.camera_visible) return pass_through();
-    if (shape.light >= 0 && dot(ray.d, its.n) < 0) {
+    if (shape.light >= 0) {
         const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-        add_emission(area.radiance, shape.light,
-                     light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
+        if (dot(ray.d, its.n) < 0 || area.twosided)
+            add_emission(area.radiance, shape.light,
+                         light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
     const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];
     if (is_null(given)) return pass_through();

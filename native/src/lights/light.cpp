@@ -116,7 +116,7 @@ struct Sample {
                 out.d = d;
                 out.dist = t0;
                 out.pdf = uniform_cone_pdf(cos_max);
-                out.L = dot(n, d) < 0 ? l.radiance : Spectrum(0.0);
+                out.L = dot(n, d) < 0 || l.twosided ? l.radiance : Spectrum(0.0);
                 return out.pdf > 0 && std::isfinite(out.pdf);
             }
             n = sample_uniform_sphere(u);
@@ -139,8 +139,8 @@ struct Sample {
         out.dist = std::sqrt(d2);
         if (!(out.dist > 0)) return false;
         out.d = to / out.dist;
-        const Real cos_l = -dot(n, out.d);
-        if (cos_l <= 0) return false;  // the back of an emitter is dark
+        const Real cos_l = l.twosided ? std::abs(dot(n, out.d)) : -dot(n, out.d);
+        if (cos_l <= 0) return false;  // the back of a one-sided emitter is dark
         out.pdf = pdf_area * d2 / cos_l;
         out.L = l.radiance;
         return true;

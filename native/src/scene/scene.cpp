@@ -90,7 +90,7 @@ void check_info(const Scene &s, const ShapeInfo &info) {
 }
 }  // namespace
 
-int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance) {
+int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided) {
     check_info(*this, info);
     for (const auto &t : mesh.triangles)
         for (uint32_t v : t)
@@ -100,18 +100,18 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectr
     geometry_built = false;
     const int id = geometry.add_mesh(std::move(mesh));
     shapes.push_back(info);
-    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0});
+    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0, {}, twosided});
     built = false;
     return id;
 }
 
-int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance) {
+int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance, bool twosided) {
     check_info(*this, info);
     if (!(s.radius > 0)) throw std::invalid_argument("sphere radius must be positive");
     geometry_built = false;
     const int id = geometry.add_sphere(s);
     shapes.push_back(info);
-    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0});
+    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0, {}, twosided});
     built = false;
     return id;
 }

@@ -1,0 +1,207 @@
+"""Small Blender scenes, one exported feature each, for comparing Volpath with Cycles
+(issue #38's parity suite: tests/addon/test_parity.py quickly, bench/parity.py in full).
+
+Each builder takes the blank scene (tests/blender_scenes.py) and adds a camera, a floor and
+what it tests. `render_both` renders the scene with Volpath and Cycles under matched
+settings: no denoising, no clamping, no adaptive sampling, Filter Glossy 0 (Cycles blurs
+caustics otherwise), enough bounces, a one-pixel box filter."""
+
+import math
+
+import bpy
+import numpy as np
+from blender_scenes import add_camera, material, render_f12, set_background, volume_material, write_vdb
+
+
+def _floor(size=12, colour=(0.6, 0.6, 0.6)):
+    bpy.ops.mesh.primitive_plane_add(size=size)
+    bpy.context.object.data.materials.append(material("floor", Base_Color=(*colour, 1), Specular_IOR_Level=0.0))
+
+
+def _view(scene):
+    add_camera(scene, location=(0, -6, 4), rotation=(math.radians(58), 0, 0))
+
+
+def _light(kind, energy, location=(0, 0, 3), rotation=(0, 0, 0), **data):
+    bpy.ops.object.light_add(type=kind, location=location, rotation=rotation)
+    light = bpy.context.object
+    light.data.energy = energy
+    for k, v in data.items():
+        setattr(light.data, k, v)
+    return light
+
+
+def point_light(scene):
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0, 0.5))
+    _light("POINT", 300, location=(1, -1, 3), shadow_soft_size=0)
+    set_background(scene, (0.05, 0.05, 0.05))
+
+
+def sun_with_angle(scene):
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0, 0.5))
+    _light("SUN", 3, rotation=(0.5, 0.3, 0), angle=math.radians(10))
+    set_background(scene, (0.1, 0.12, 0.15))
+
+
+def area_lights(scene):
+    """A square, a rectangle and a disk, seen in the floor's light (not by the camera)."""
+    _floor(), _view(scene)
+    _light("AREA", 80, location=(-2, 0, 2), shape="SQUARE", size=0.8)
+    _light("AREA", 80, location=(0, 0, 2), shape="RECTANGLE", size=1.2, size_y=0.4)
+    _light("AREA", 80, location=(2, 0, 2), shape="DISK", size=0.8)
+
+
+def emission_shader(scene):
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_plane_add(size=1.5, location=(0, 0.5, 1.5), rotation=(math.pi, 0, 0))
+    m = bpy.data.materials.new("glow")
+    tree = m.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    emit = tree.nodes.new("ShaderNodeEmission")
+    emit.inputs["Color"].default_value, emit.inputs["Strength"].default_value = (1.0, 0.8, 0.5, 1), 6.0
+    tree.links.new(emit.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    bpy.context.object.data.materials.append(m)
+
+
+def glass_and_metal(scene):
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(-1, 0, 0.7), segments=64, ring_count=32)
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(material("glass", Transmission_Weight=1.0, IOR=1.45, Roughness=0.0))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(1, 0, 0.7), segments=64, ring_count=32)
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(
+        material("gold", Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.25)
+    )
+    _light("AREA", 200, location=(0, -1, 3), size=1.0)
+    set_background(scene, (0.2, 0.2, 0.2))
+
+
+def textured_principled(scene):
+    _floor(), _view(scene)
+    image = bpy.data.images.new("checks", 8, 8)
+    u, v = np.meshgrid(np.arange(8), np.arange(8))
+    colour = np.where(((u + v) % 2 == 0)[..., None], [0.8, 0.2, 0.1, 1.0], [0.1, 0.3, 0.8, 1.0])
+    image.pixels.foreach_set(colour.astype(np.float32).ravel())
+    image.pack()
+    bpy.ops.mesh.primitive_cube_add(size=1.6, location=(0, 0, 0.8))
+    m = bpy.data.materials.new("checks")
+    tex = m.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image, tex.interpolation = image, "Closest"
+    m.node_tree.links.new(tex.outputs["Color"], m.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.context.object.data.materials.append(m)
+    _light("SUN", 3, rotation=(0.6, 0.4, 0))
+    set_background(scene, (0.2, 0.25, 0.3))
+
+
+def coloured_volume(scene):
+    """A box of Principled Volume with a coloured absorption, lit by the sun; lifted off the
+    floor, since Cycles darkens the floor under a box that rests on it (9 % here) where a
+    gap of any width would not (Volpath renders both alike: tests/stability/test_coplanar.py)."""
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=2, location=(0, 0, 1.05))
+    m = volume_material("smoke", density=1.5, color=(0.8, 0.8, 0.8), anisotropy=0.3)
+    m.node_tree.nodes["Principled Volume"].inputs["Absorption Color"].default_value = (0.2, 0.5, 0.9, 1)
+    bpy.context.object.data.materials.append(m)
+    _light("SUN", 4, rotation=(0.5, 0.2, 0))
+    set_background(scene, (0.1, 0.1, 0.1))
+
+
+def vdb_volume(scene, directory):
+    _floor(), _view(scene)
+    x, y, z = np.meshgrid(*(np.linspace(-1, 1, 24),) * 3, indexing="ij")
+    density = np.clip(1 - np.sqrt(x**2 + y**2 + z**2), 0, None) * 4
+    path = write_vdb(f"{directory}/blob.vdb", density, voxel_size=0.08)
+    bpy.ops.object.volume_import(filepath=str(path), location=(-1, -1, 0))
+    bpy.context.object.data.materials.append(volume_material("blob", density=1.0, color=(0.9, 0.9, 0.9)))
+    _light("SUN", 4, rotation=(0.5, 0.2, 0))
+    set_background(scene, (0.1, 0.1, 0.1))
+
+
+def world_colour(scene):
+    _floor(colour=(0.8, 0.8, 0.8)), _view(scene)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0, 0, 0.8), segments=64, ring_count=32)
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(material("red", Base_Color=(0.8, 0.1, 0.1, 1), Roughness=0.5))
+    set_background(scene, (0.3, 0.5, 0.9), strength=1.5)
+
+
+def camera_fit_and_shift(scene):
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(1, 1, 0.5))
+    cam = scene.camera.data
+    cam.sensor_fit, cam.shift_x, cam.shift_y, cam.lens = "VERTICAL", 0.15, -0.1, 40
+    _light("SUN", 3, rotation=(0.5, 0.3, 0))
+    set_background(scene, (0.2, 0.2, 0.2))
+
+
+def modifiers_and_instances(scene):
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=0.6, location=(-2, 0, 0.3))
+    cube = bpy.context.object
+    cube.data.materials.append(material("orange", Base_Color=(0.9, 0.4, 0.1, 1)))
+    array = cube.modifiers.new("array", "ARRAY")
+    array.count, array.relative_offset_displace = 4, (1.8, 0, 0)
+    bevel = cube.modifiers.new("bevel", "BEVEL")
+    bevel.width = 0.1
+    for x in (-3.5, 1):  # apart: overlapping copies would make coplanar faces
+        copy = cube.copy()  # a linked duplicate: shares the mesh
+        copy.location = (x, 2, 0.3)
+        bpy.context.collection.objects.link(copy)
+    _light("SUN", 3, rotation=(0.5, 0.3, 0))
+    set_background(scene, (0.2, 0.2, 0.2))
+
+
+SCENES = {
+    "point light": point_light,
+    "sun with an angle": sun_with_angle,
+    "area lights": area_lights,
+    "emission shader": emission_shader,
+    "glass and metal": glass_and_metal,
+    "textured principled": textured_principled,
+    "coloured volume": coloured_volume,
+    "VDB volume": vdb_volume,
+    "world colour": world_colour,
+    "camera fit and shift": camera_fit_and_shift,
+    "modifiers and instances": modifiers_and_instances,
+}
+
+
+def build(name, scene, directory):
+    builder = SCENES[name]
+    builder(scene, directory) if builder is vdb_volume else builder(scene)
+
+
+def render_both(scene, directory, spp, size=(64, 48)):
+    """(Volpath's image, Cycles' image) of the scene at `spp`, matched settings."""
+    scene.render.resolution_x, scene.render.resolution_y = size
+    scene.render.engine = "VOLPATH"
+    scene.volpath.spp, scene.volpath.max_depth = spp, 34
+    ours = render_f12(scene, f"{directory}/volpath.exr")
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.samples, c.use_denoising, c.device, c.use_adaptive_sampling = spp, False, "CPU", False
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = c.volume_bounces = 32
+    c.transparent_max_bounces = 64
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0
+    c.blur_glossy = 0.0
+    c.caustics_reflective = c.caustics_refractive = True
+    c.pixel_filter_type, c.filter_width = "BOX", 1.0  # Volpath's pixel filter
+    theirs = render_f12(scene, f"{directory}/cycles.exr")
+    return ours, theirs
+
+
+def agreement(ours, theirs, block=8):
+    """(image mean ratio, the largest relative difference of 8x8 block means among blocks
+    brighter than a tenth of the image mean)."""
+    ratio = float(ours.mean() / theirs.mean())
+    h, w = ours.shape[0] // block, ours.shape[1] // block
+
+    def blocks(img):
+        return img[: h * block, : w * block].mean(axis=2).reshape(h, block, w, block).mean(axis=(1, 3))
+
+    a, b = blocks(ours), blocks(theirs)
+    lit = b > 0.1 * theirs.mean()
+    return ratio, float(np.max(np.abs(a[lit] / b[lit] - 1))) if lit.any() else 0.0
