@@ -23,7 +23,7 @@ def main():
     args = ap.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
     from blender_scenes import blank_scene
-    from parity_scenes import SCENES, agreement, build, render_both
+    from parity_scenes import KNOWN_DIFFERENCES, SCENES, agreement, build, render_both
 
     print(f"| scene ({args.spp} spp, {size[0]}x{size[1]}) | image mean, Volpath / Cycles | largest block difference |")
     print("|---|---|---|")
@@ -32,7 +32,8 @@ def main():
             scene = blank_scene()
             build(name, scene, directory)
             ratio, block = agreement(*render_both(scene, directory, args.spp, size))
-        print(f"| {name} | {ratio:.3f} | {100 * block:.1f} % |", flush=True)
+        note = f" ({KNOWN_DIFFERENCES[name]})" if name in KNOWN_DIFFERENCES else ""
+        print(f"| {name}{note} | {ratio:.3f} | {100 * block:.1f} % |", flush=True)
 
 
 if __name__ == "__main__":

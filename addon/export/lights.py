@@ -51,6 +51,8 @@ def export(obj, matrix_world, report):
             "irradiance": convert.rgb(color),
         }
     if light.type == "AREA":
+        if light.spread < math.pi - 1e-6:
+            report.warn(f"light '{name}': a spread of {math.degrees(light.spread):.0f} degrees is not supported (180)")
         return _area(light, matrix_world, color, report, name, obj.visible_camera)
     report.warn(f"light '{name}': {light.type.lower()} lights are not supported (skipped)")
     return None
