@@ -176,6 +176,8 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
             shape["normals"] = normals
         if not obj.visible_camera:
             shape["camera_visible"] = False
+        if not obj.visible_shadow:
+            shape["casts_shadow"] = False
         if uvs is not None:
             shape["uvs"] = uvs
         if mat.radiance is not None:

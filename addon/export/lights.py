@@ -17,7 +17,7 @@ def sun_direction(obj):
 
 
 # Blender's ray visibility flags (Object properties) that Volpath does not follow yet.
-VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission", "visible_shadow")
+VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission")
 
 
 def ignored_visibility(obj, report, kind, flags=VISIBILITY):

@@ -261,15 +261,16 @@ def test_area_lights_are_not_geometry(blank, visible_camera):
     assert up == pytest.approx(0.2 + (radiance if visible_camera else 0), rel=1e-3)
 
 
-def test_ray_visibility_camera_is_followed_and_the_rest_reported(blank):
+def test_ray_visibility_camera_and_shadow_are_followed_and_the_rest_reported(blank):
     add_camera(blank)
     bpy.ops.mesh.primitive_cube_add()
-    bpy.context.object.visible_shadow = False
-    bpy.context.object.visible_camera = False  # this one is followed
+    cube = bpy.context.object
+    cube.visible_camera = cube.visible_shadow = False  # these two are followed
+    cube.visible_diffuse = False
     bpy.ops.object.light_add(type="AREA")
     bpy.context.object.visible_glossy = False
     exported = export_scene(depsgraph())
-    assert exported.scene["Cube"]["camera_visible"] is False
+    assert exported.scene["Cube"]["camera_visible"] is False and exported.scene["Cube"]["casts_shadow"] is False
     warnings = exported.warnings
-    assert any("object 'Cube': ray visibility off for shadow is not supported" in w for w in warnings), warnings
+    assert any("object 'Cube': ray visibility off for diffuse is not supported" in w for w in warnings), warnings
     assert any("light 'Area': ray visibility off for glossy is not supported" in w for w in warnings), warnings

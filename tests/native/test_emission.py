@@ -160,3 +160,22 @@ def test_a_twosided_area_emitter_lights_both_faces(twosided):
     se = np.sqrt(a.var(ddof=1) / len(a) + b.var(ddof=1) / len(b))
     assert abs(a.mean() - b.mean()) < 5 * se + 1e-6, (a.mean(), b.mean(), se)
     assert (a.mean() > 0.05) == twosided  # the floor below sees the back face only when it emits
+
+
+def test_a_shape_that_casts_no_shadow_lets_shadow_rays_through():
+    """A black box between a point light and the floor, with casts_shadow false: the floor
+    under it is as bright as with no box (NEE toward a point light is the only strategy,
+    so the images are equal to the last bit wherever the camera sees the floor)."""
+    floor = '<shape type="rectangle"><transform name="to_world"><scale value="4"/></transform></shape>'
+    light = '<emitter type="point"><point name="position" value="0, 0, 3"/><rgb name="intensity" value="5"/></emitter>'
+    box = (
+        '<shape type="cube"><transform name="to_world"><scale value="0.3"/><translate z="1.5"/></transform>'
+        '<bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>{}</shape>'
+    )
+    camera = S.camera(res=8, origin="0, -3, 1", target="0, 0, 0", fov=30)  # below the box: sees the floor
+    without = volpath.render(volpath.load_string(S.scene(camera, floor, light)), spp=2, seed=1)
+    shadowed = volpath.render(volpath.load_string(S.scene(camera, floor, light, box.format(""))), spp=2, seed=1)
+    no_shadow = '<boolean name="casts_shadow" value="false"/>'
+    through = volpath.render(volpath.load_string(S.scene(camera, floor, light, box.format(no_shadow))), spp=2, seed=1)
+    assert shadowed.mean() < 0.9 * without.mean()  # the box does shadow the floor
+    np.testing.assert_array_equal(through, without)

@@ -50,6 +50,7 @@ def build(b, d):
         radiance=None if radiance is None else tuple(radiance),
         # Volpath's: camera rays pass through the shape (Blender's lights; Mitsuba has none).
         camera_visible=p.bool("camera_visible", True),
+        casts_shadow=p.bool("casts_shadow", True),  # Volpath's: shadow rays pass through if false
         emitter_twosided=emitter_twosided,
     )
     flip = p.bool("flip_normals", False)

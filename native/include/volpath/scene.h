@@ -23,6 +23,8 @@ struct ShapeInfo {
     // False: camera rays pass through the shape, emission and all (Blender's lights, which
     // Cycles hides from the camera unless asked); other rays meet it as usual.
     bool camera_visible = true;
+    // False: shadow rays pass through it (Blender's Visibility > Shadow); other rays meet it.
+    bool casts_shadow = true;
 };
 
 // Mitsuba's perspective camera: looks along +z of `to_world`, +x of the camera points to

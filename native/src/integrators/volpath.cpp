@@ -186,7 +186,9 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         if (hit) {
             const int bsdf = scene.shapes[its.shape].bsdf;
             const BSDF &b = scene.bsdfs[size_t(bsdf)];
-            const Real pass = is_null(b) ? 1 : is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its)) : 0;
+            const Real pass = is_null(b) || !scene.shapes[its.shape].casts_shadow ? 1
+                              : is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its))
+                                              : 0;
             if (pass == 0) return Spectrum(0.0);
             if (pass < 1) T_ray *= pass, r_u *= pass;
         }
