@@ -3,7 +3,7 @@ on one scene built in Blender and exported by the add-on.
 
 A diffuse floor, a smooth glass sphere (IOR 1.45) resting on it, an area light of 300 W
 above, a black world; the camera looks down at the floor. Each renderer renders the exported
-scene (Mitsuba reads the exported scene.xml, with Volpath's own `camera_visible` and null
+scene (Mitsuba reads the exported scene.xml, with Volpath's own `hidden_from` and null
 BSDF on the light and its null-collision cap dropped: there the light quad is an
 occluder, which changes nothing the floor sees). Cycles renders twice: with its default Filter Glossy (1.0, which blurs
 caustics) and with 0. Prints the mean of the caustic's brightest 8x8 block and of the ring
@@ -95,7 +95,7 @@ def main():
     mi.set_variant("scalar_rgb")
     with open(xml) as f:
         text = f.read()
-    text = re.sub(r'\s*<boolean name="camera_visible" value="[^"]*"\s*/>', "", text)
+    text = re.sub(r'\s*<string name="hidden_from" value="[^"]*"\s*/>', "", text)
     text = re.sub(r'\s*<bsdf type="null"\s*/>', "", text)
     text = re.sub(r'\s*<integer name="max_null_collisions" value="[^"]*"\s*/>', "", text)
     mitsuba_xml = os.path.join(os.path.dirname(xml), "scene_mitsuba.xml")

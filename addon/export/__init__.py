@@ -105,7 +105,6 @@ def export_scene(depsgraph, mesh_cache=None):
                 if entry["type"] == "sun":
                     suns[k] = obj.original.name
         elif obj.type in _CONVERTIBLE:
-            lights.ignored_visibility(obj, report, "object")
             for name, shape in _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
                 add(name, shape)
         elif obj.type == "VOLUME":
@@ -174,10 +173,9 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
         shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": mat.bsdf}
         if normals is not None:
             shape["normals"] = normals
-        if not obj.visible_camera:
-            shape["camera_visible"] = False
-        if not obj.visible_shadow:
-            shape["casts_shadow"] = False
+        hidden = lights.hidden_from(obj)
+        if hidden:
+            shape["hidden_from"] = hidden
         if uvs is not None:
             shape["uvs"] = uvs
         if mat.radiance is not None:

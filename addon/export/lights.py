@@ -16,16 +16,20 @@ def sun_direction(obj):
     return convert.direction(-np.array(obj.matrix_world.to_3x3())[:, 2])
 
 
-# Blender's ray visibility flags (Object properties) that Volpath does not follow yet.
-VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission")
+# Blender's ray visibility flags (Object properties) and the scene's ray kinds.
+VISIBILITY = {
+    "visible_camera": "camera",
+    "visible_diffuse": "diffuse",
+    "visible_glossy": "glossy",
+    "visible_transmission": "transmission",
+    "visible_volume_scatter": "scatter",
+    "visible_shadow": "shadow",
+}
 
 
-def ignored_visibility(obj, report, kind, flags=VISIBILITY):
-    """Reports the object's ray visibility flags that are off and that Volpath ignores."""
-    off = [f.removeprefix("visible_") for f in flags if not getattr(obj, f, True)]
-    if off:
-        flags = ", ".join(off)
-        report.warn(f"{kind} '{obj.name}': ray visibility off for {flags} is not supported (visible to all rays)")
+def hidden_from(obj):
+    """The scene's `hidden_from` of an object: its ray visibility flags that are off."""
+    return ", ".join(kind for flag, kind in VISIBILITY.items() if not getattr(obj, flag, True))
 
 
 def export(obj, matrix_world, report):
@@ -34,7 +38,10 @@ def export(obj, matrix_world, report):
     light = obj.data
     color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
-    ignored_visibility(obj, report, "light", ("visible_diffuse", "visible_glossy", "visible_transmission"))
+    hidden = [k for k in hidden_from(obj).split(", ") if k not in ("", "camera", "shadow")]
+    if hidden:
+        # A light hidden from diffuse rays lights no diffuse surface in Cycles (its NEE too).
+        report.warn(f"light '{name}': ray visibility off for {', '.join(hidden)} is not supported (visible to all)")
     if light.type == "POINT":
         if light.shadow_soft_size > 0:
             report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")
@@ -91,5 +98,5 @@ def _area(light, matrix_world, power, report, name, camera_visible):
         "to_world": to_world,
         "bsdf": {"type": "null"},
         "emitter": {"type": "area", "radiance": convert.rgb(power / (math.pi * area))},
-        "camera_visible": bool(camera_visible),
+        **({} if camera_visible else {"hidden_from": "camera"}),
     }

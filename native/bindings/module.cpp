@@ -76,13 +76,13 @@ int add_or_replace(Scene &s, const Light &l, int replace) {
     return replace;
 }
 
-ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface, bool camera_visible,
-                     bool casts_shadow) {
+ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface, int hidden_from) {
     ShapeInfo info;
     info.bsdf = bsdf;
     info.interior = interior, info.exterior = exterior;
     info.medium_interface = medium_interface;
-    info.camera_visible = camera_visible, info.casts_shadow = casts_shadow;
+    if (hidden_from < 0 || hidden_from > 63) throw std::invalid_argument("hidden_from must be RayKind bits (0-63)");
+    info.hidden_from = uint8_t(hidden_from);
     return info;
 }
 
@@ -421,8 +421,7 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions,
                const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
-               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, bool camera_visible, bool casts_shadow,
-               bool emitter_twosided) {
+               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided) {
                 TriangleMesh mesh;
                 mesh.positions = points(positions, "positions");
                 if (normals) mesh.normals = points(*normals, "normals");
@@ -438,40 +437,35 @@ PYBIND11_MODULE(_core, m) {
                 for (size_t i = 0; i < mesh.triangles.size(); ++i)
                     mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
-                return s.add_shape_mesh(
-                    std::move(mesh),
-                    shape_info(bsdf, interior, exterior, medium_interface, camera_visible, casts_shadow),
-                    radiance ? &Le : nullptr, emitter_twosided);
+                return s.add_shape_mesh(std::move(mesh),
+                                        shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
+                                        radiance ? &Le : nullptr, emitter_twosided);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("uvs") = py::none(), py::arg("camera_visible") = true, py::arg("casts_shadow") = true,
-            py::arg("emitter_twosided") = false)
+            py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false)
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
-               bool medium_interface, std::optional<Array3> radiance, bool camera_visible, bool casts_shadow,
-               bool emitter_twosided) {
+               bool medium_interface, std::optional<Array3> radiance, int hidden_from, bool emitter_twosided) {
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
-                return s.add_shape_sphere(
-                    Sphere{vec(center), radius, flip},
-                    shape_info(bsdf, interior, exterior, medium_interface, camera_visible, casts_shadow),
-                    radiance ? &Le : nullptr, emitter_twosided);
+                return s.add_shape_sphere(Sphere{vec(center), radius, flip},
+                                          shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
+                                          radiance ? &Le : nullptr, emitter_twosided);
             },
             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("camera_visible") = true, py::arg("casts_shadow") = true, py::arg("emitter_twosided") = false)
+            py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false)
         .def(
             "add_box",
             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
-               int exterior, bool medium_interface, bool camera_visible, bool casts_shadow) {
-                return s.add_shape_box(
-                    Box{transform(to_world), transform(to_local), flip},
-                    shape_info(bsdf, interior, exterior, medium_interface, camera_visible, casts_shadow));
+               int exterior, bool medium_interface, int hidden_from) {
+                return s.add_shape_box(Box{transform(to_world), transform(to_local), flip},
+                                       shape_info(bsdf, interior, exterior, medium_interface, hidden_from));
             },
             py::arg("to_world"), py::arg("to_local"), py::arg("flip_normals"), py::arg("bsdf"),
             py::arg("interior") = -1, py::arg("exterior") = -1, py::arg("medium_interface") = false,
-            py::arg("camera_visible") = true, py::arg("casts_shadow") = true)
+            py::arg("hidden_from") = 0)
         .def(
             "add_medium_atmosphere",
             [](Scene &s, Array3 center, double planet_radius, double top_radius, Array3 rayleigh,

@@ -250,7 +250,7 @@ def test_area_lights_are_not_geometry(blank, visible_camera):
     light.data.size, light.data.energy = 3, 1e-6  # fills the view, adds nothing
     light.visible_camera = visible_camera
     entry = export_scene(depsgraph()).scene["Area"]
-    assert entry["bsdf"] == {"type": "null"} and entry["camera_visible"] is visible_camera
+    assert entry["bsdf"] == {"type": "null"} and ("hidden_from" not in entry) is visible_camera
     np.testing.assert_allclose(floor_image(), unlit, rtol=0.02)  # black where it cast a shadow
     # From below, looking up at its face: the world behind it, plus its radiance if the
     # camera sees it (the ray goes on through the light, as Cycles' does).
@@ -261,16 +261,15 @@ def test_area_lights_are_not_geometry(blank, visible_camera):
     assert up == pytest.approx(0.2 + (radiance if visible_camera else 0), rel=1e-3)
 
 
-def test_ray_visibility_camera_and_shadow_are_followed_and_the_rest_reported(blank):
+def test_ray_visibility_is_followed_for_meshes_and_camera_for_lights(blank):
     add_camera(blank)
     bpy.ops.mesh.primitive_cube_add()
     cube = bpy.context.object
-    cube.visible_camera = cube.visible_shadow = False  # these two are followed
-    cube.visible_diffuse = False
+    cube.visible_camera = cube.visible_shadow = cube.visible_diffuse = False
     bpy.ops.object.light_add(type="AREA")
     bpy.context.object.visible_glossy = False
     exported = export_scene(depsgraph())
-    assert exported.scene["Cube"]["camera_visible"] is False and exported.scene["Cube"]["casts_shadow"] is False
+    assert exported.scene["Cube"]["hidden_from"] == "camera, diffuse, shadow"
     warnings = exported.warnings
-    assert any("object 'Cube': ray visibility off for diffuse is not supported" in w for w in warnings), warnings
+    assert not any("'Cube'" in w for w in warnings), warnings
     assert any("light 'Area': ray visibility off for glossy is not supported" in w for w in warnings), warnings

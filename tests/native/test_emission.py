@@ -163,7 +163,7 @@ def test_a_twosided_area_emitter_lights_both_faces(twosided):
 
 
 def test_a_shape_that_casts_no_shadow_lets_shadow_rays_through():
-    """A black box between a point light and the floor, with casts_shadow false: the floor
+    """A black box between a point light and the floor, hidden from shadow rays: the floor
     under it is as bright as with no box (NEE toward a point light is the only strategy,
     so the images are equal to the last bit wherever the camera sees the floor)."""
     floor = '<shape type="rectangle"><transform name="to_world"><scale value="4"/></transform></shape>'
@@ -175,7 +175,26 @@ def test_a_shape_that_casts_no_shadow_lets_shadow_rays_through():
     camera = S.camera(res=8, origin="0, -3, 1", target="0, 0, 0", fov=30)  # below the box: sees the floor
     without = volpath.render(volpath.load_string(S.scene(camera, floor, light)), spp=2, seed=1)
     shadowed = volpath.render(volpath.load_string(S.scene(camera, floor, light, box.format(""))), spp=2, seed=1)
-    no_shadow = '<boolean name="casts_shadow" value="false"/>'
+    no_shadow = '<string name="hidden_from" value="shadow"/>'
     through = volpath.render(volpath.load_string(S.scene(camera, floor, light, box.format(no_shadow))), spp=2, seed=1)
     assert shadowed.mean() < 0.9 * without.mean()  # the box does shadow the floor
     np.testing.assert_array_equal(through, without)
+
+
+@pytest.mark.parametrize("hidden, expected", [("", "box"), ("glossy", "sky"), ("camera, diffuse", "box")])
+def test_a_mirror_shows_what_glossy_rays_may_see(hidden, expected):
+    """A mirror reflects a red box against a blue sky: hidden from glossy rays, the box is
+    gone from the reflection (a mirror's bounce is glossy); hidden from camera and diffuse
+    rays only, it is still there."""
+    mirror = '<shape type="rectangle"><bsdf type="conductor"/></shape>'
+    box = (
+        '<shape type="cube"><transform name="to_world"><scale value="2"/><translate z="5"/></transform>'
+        '<bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>'
+        f'<emitter type="area"><rgb name="radiance" value="1, 0, 0"/></emitter><string name="hidden_from" value="{hidden}"/>'
+        "</shape>"
+    )
+    sky = '<emitter type="constant"><rgb name="radiance" value="0, 0, 1"/></emitter>'
+    camera = S.camera(res=4, origin="0.5, 0, 1", target="0, 0, 0", fov=5)  # beside the box, looking at the mirror
+    img = volpath.render(volpath.load_string(S.scene(camera, mirror, box, sky)), spp=4, seed=1)
+    red, blue = img[..., 0].mean(), img[..., 2].mean()
+    assert (red > 0.9 and blue < 0.1) if expected == "box" else (blue > 0.9 and red < 0.1), (red, blue)

@@ -48,9 +48,7 @@ def build(b, d):
         exterior=exterior,
         medium_interface=medium_interface,
         radiance=None if radiance is None else tuple(radiance),
-        # Volpath's: camera rays pass through the shape (Blender's lights; Mitsuba has none).
-        camera_visible=p.bool("camera_visible", True),
-        casts_shadow=p.bool("casts_shadow", True),  # Volpath's: shadow rays pass through if false
+        hidden_from=_hidden_from(p),
         emitter_twosided=emitter_twosided,
     )
     flip = p.bool("flip_normals", False)
@@ -155,6 +153,20 @@ def transform_normals(m, n):
     out = n @ np.linalg.inv(m[:3, :3])  # (M^-T n) for row vectors
     norm = np.linalg.norm(out, axis=1, keepdims=True)
     return out / np.where(norm > 0, norm, 1)
+
+
+# The ray kinds a shape can hide from (RayKind in native/include/volpath/scene.h).
+RAY_KINDS = {"camera": 1, "diffuse": 2, "glossy": 4, "transmission": 8, "scatter": 16, "shadow": 32}
+
+
+def _hidden_from(p):
+    """Volpath's `hidden_from`: the kinds of rays that pass through the shape (Blender's ray
+    visibility; Mitsuba has none), comma-separated."""
+    names = [n.strip() for n in p.str("hidden_from", "").split(",") if n.strip()]
+    unknown = [n for n in names if n not in RAY_KINDS]
+    if unknown:
+        raise p.error(f"unknown ray kind(s) {', '.join(unknown)} in 'hidden_from' (expected: {', '.join(RAY_KINDS)})")
+    return sum({RAY_KINDS[n] for n in names})
 
 
 def rectangle():

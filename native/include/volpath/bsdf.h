@@ -127,6 +127,7 @@ struct BSDFSample {
     Spectrum weight;  // f * |cos wo| / pdf
     Real pdf = 0;
     bool delta = false;
+    bool diffuse = false;  // from a diffuse lobe (else glossy or specular)
 };
 
 inline bool is_null(const BSDF &b) { return !is_layered(b) && std::holds_alternative<NullBSDF>(b.model); }

@@ -13,6 +13,10 @@
 
 namespace volpath {
 
+// What a ray was traced for: from the camera, after a diffuse, glossy (specular included) or
+// transmitting bounce, after scattering in a medium, or toward a light (a shadow ray).
+enum class RayKind : uint8_t { Camera = 1, Diffuse = 2, Glossy = 4, Transmission = 8, Scatter = 16, Shadow = 32 };
+
 struct ShapeInfo {
     int bsdf = -1;
     int light = -1;  // the AreaLight on this shape
@@ -20,11 +24,10 @@ struct ShapeInfo {
     // leaving through the front (along the normal) enters `exterior`, else `interior`.
     bool medium_interface = false;
     int interior = -1, exterior = -1;
-    // False: camera rays pass through the shape, emission and all (Blender's lights, which
-    // Cycles hides from the camera unless asked); other rays meet it as usual.
-    bool camera_visible = true;
-    // False: shadow rays pass through it (Blender's Visibility > Shadow); other rays meet it.
-    bool casts_shadow = true;
+    // The kinds of rays that pass through the shape, emission and all (RayKind bits:
+    // Blender's ray visibility; lights, which Cycles hides from the camera unless asked).
+    uint8_t hidden_from = 0;
+    bool hides_from(RayKind kind) const { return (hidden_from & uint8_t(kind)) != 0; }
 };
 
 // Mitsuba's perspective camera: looks along +z of `to_world`, +x of the camera points to

@@ -195,6 +195,7 @@ struct Sample {
         out.pdf = cosine_hemisphere_pdf(out.wo.z);
         out.weight = b.reflectance;
         out.delta = false;
+        out.diffuse = true;
         return out.pdf > 0;
     }
     bool operator()(const DielectricBSDF &b) const {
@@ -274,6 +275,7 @@ struct Sample {
             out.wo = h * (2.0 * dot(wi, h)) - wi;
         } else {
             out.wo = sample_cosine_hemisphere(u);
+            out.diffuse = true;
         }
         out.delta = false;
         if (out.wo.z <= 0) return false;

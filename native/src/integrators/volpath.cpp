@@ -186,7 +186,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         if (hit) {
             const int bsdf = scene.shapes[its.shape].bsdf;
             const BSDF &b = scene.bsdfs[size_t(bsdf)];
-            const Real pass = is_null(b) || !scene.shapes[its.shape].casts_shadow ? 1
+            const Real pass = is_null(b) || scene.shapes[its.shape].hides_from(RayKind::Shadow) ? 1
                               : is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its))
                                               : 0;
             if (pass == 0) return Spectrum(0.0);
@@ -317,8 +317,9 @@ struct Path {
     const Spectrum gathered;
     Spectrum L{0.0}, beta{1.0}, r_u{1.0}, r_l{1.0};
     const int channel;
-    int depth = 0;                // real scattering events so far
-    bool specular_bounce = true;  // the camera counts as specular: nothing to MIS with
+    int depth = 0;                       // real scattering events so far
+    bool specular_bounce = true;         // the camera counts as specular: nothing to MIS with
+    RayKind ray_kind = RayKind::Camera;  // what the current ray was traced for
     Vec3 prev_p;
     int null_collisions = 0, null_crossings = 0;
     // The last scattering vertex, when a distance drawn for a light could have made it too:
@@ -521,6 +522,7 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
     }
     prev_p = p;
     specular_bounce = false;
+    ray_kind = RayKind::Scatter;
     null_crossings = 0;
     ray = Ray{p, ps.d_out, 0, kInfinity};
     return sky_model ? roulette_after_sky_model(arriving) : roulette();
@@ -788,7 +790,7 @@ Step Path::at_surface(const Intersection &its) {
         ray = spawn_ray(its.p, its.n, ray.d, t_left);
         return Step::NewRay;
     };
-    if (depth == 0 && !shape.camera_visible) return pass_through();
+    if (shape.hides_from(ray_kind)) return pass_through();
     if (shape.light >= 0) {
         const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
         if (dot(ray.d, its.n) < 0 || area.twosided)
@@ -824,6 +826,7 @@ Step Path::at_surface(const Intersection &its) {
     const Vec3 wo = frame.to_world(bs.wo);
     beta *= bs.weight;
     specular_bounce = bs.delta;
+    ray_kind = bs.wo.z * wi.z < 0 ? RayKind::Transmission : bs.diffuse ? RayKind::Diffuse : RayKind::Glossy;
     if (!bs.delta) r_l = r_u / bs.pdf;
     scattered_at.reset();
     prev_p = its.p;

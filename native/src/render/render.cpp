@@ -42,7 +42,7 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
         Intersection its;
         if (!scene.intersect(ray, its)) break;
         const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
-        if (!shape.camera_visible) {
+        if (shape.hides_from(RayKind::Camera)) {
             ray = spawn_ray(its.p, its.n, ray.d);
             continue;
         }
