@@ -25,8 +25,8 @@ class Images:
         self._bitmaps = {}
 
     def bitmap(self, link, what):
-        """The bitmap dictionary for the node a link comes from, or None (reported) when it
-        is not an Image Texture whose colour Volpath can read."""
+        """The bitmap dictionary for the node a link comes from (its colour or its alpha), or
+        None when it is not an Image Texture (the caller reports the input as unsupported)."""
         node, output = link.from_node, link.from_socket.name
         if node.bl_idname != "ShaderNodeTexImage" or output not in ("Color", "Alpha"):
             return None
