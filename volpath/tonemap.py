@@ -16,6 +16,12 @@ def _srgb(y):
     return np.where(y <= 0.0031308, 12.92 * y, 1.055 * np.maximum(y, 0.0031308) ** (1 / 2.4) - 0.055)
 
 
+def srgb_to_linear(c):
+    """The sRGB transfer curve's inverse: encoded values in [0, 1] -> linear (float64)."""
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
 def display(image, exposure=0.0):
     """Linear radiance -> display values in [0, 1]: scale by 2^exposure, the filmic curve, sRGB."""
     x = np.maximum(np.asarray(image, dtype=np.float64) * 2.0**exposure, 0.0)

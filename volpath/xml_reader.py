@@ -14,6 +14,7 @@ from xml.parsers import expat
 import numpy as np
 
 from .errors import SceneError
+from .tonemap import srgb_to_linear
 
 _OBJECT_TAGS = {
     "scene",
@@ -164,7 +165,7 @@ class _Reader:
         if tag in ("rgb", "srgb"):
             rgb = self.floats(file, node, self.attr(file, node, "value"), 3, tag)
             if tag == "srgb":  # gamma-encoded in the file
-                rgb = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb]
+                rgb = [float(c) for c in srgb_to_linear(rgb)]
             return {"type": "rgb", "value": rgb}
         if tag == "spectrum":
             return {"type": "spectrum", "value": self.spectrum(file, node)}

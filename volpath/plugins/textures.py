@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..images import read_image
+from ..tonemap import srgb_to_linear
 from . import kind_of
 from .params import spectral_colour
 
@@ -77,7 +78,7 @@ def _bitmap(b, p, entry):
         raw = raw or (gamma == 1.0 and encoded)
     srgb = encoded and not raw
     if srgb and texels.dtype != np.uint8:  # 16-bit: decoded once, kept as floats
-        texels = srgb_to_linear(texels)
+        texels = srgb_to_linear(texels).astype(np.float32)
     filter_type = p.str("filter_type", "bilinear", tuple(FILTERS))
     if filter_type in ("ewa", "trilinear"):
         p.ignored("filter_type", f"'{filter_type}' filtering is bilinear in Volpath (no MIP maps)")
@@ -94,11 +95,6 @@ def _bitmap(b, p, entry):
         srgb=bool(srgb),
     )
     return b.native.add_texture_bitmap(texels, srgb, FILTERS[filter_type], wrap, to_uv(p))
-
-
-def srgb_to_linear(c):
-    c = np.asarray(c, dtype=np.float32)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
 def to_uv(p):
