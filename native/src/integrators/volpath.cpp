@@ -781,8 +781,8 @@ void Path::add_infinite_lights(const Intersection &its) {
 // sampled direction with Russian roulette.
 Step Path::at_surface(const Intersection &its) {
     const ShapeInfo &shape = scene.shapes[its.shape];
-    // Straight on through: into the medium beyond a boundary, past a shape hidden from the
-    // camera (camera rays only), through a mask.
+    // Straight on through: into the medium beyond a boundary, past a shape hidden from this
+    // kind of ray, through a mask.
     const auto pass_through = [&] {
         if (++null_crossings > kMaxNullCrossings) return Step::Ended;
         medium = medium_after_crossing(shape, ray.d, its.n, medium);
