@@ -13,7 +13,7 @@ void bind_probes(py::module_ &m) {
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.
     // split_after >= 0: the values of the stream split off after that many dimensions (the
-    // second branch of a camera ray in a medium).
+    // branch of a camera ray forced to collide in a medium).
     m.def(
         "sampler_values",
         [](uint64_t seed, uint64_t pixel, int samples, int dimensions, bool low_discrepancy, bool two_d,
@@ -26,7 +26,7 @@ void bind_probes(py::module_ &m) {
             for (int i = 0; i < samples; ++i) {
                 Sampler parent(seed, pixel, uint64_t(i), low_discrepancy);
                 for (int d = 0; d < split_after; ++d) parent.next_1d();
-                Sampler sampler = split_after >= 0 ? parent.split() : parent;
+                Sampler sampler = split_after >= 0 ? parent.split(1) : parent;
                 for (int d = 0; d < dimensions; ++d) {
                     if (two_d) {
                         const Vec2 u = sampler.next_2d();

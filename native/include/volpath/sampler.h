@@ -109,11 +109,12 @@ public:
         return {owen_scramble(x, uint32_t(h >> 32)) * 0x1p-32,
                 owen_scramble(sobol_1(i), uint32_t((h * 0x9e3779b97f4a7c15ULL) >> 32)) * 0x1p-32};
     }
-    // An independent stream derived from this one (for a second branch of a path); with
-    // low discrepancy, the same sample index in a fresh set of dimensions. Its key must
-    // not depend on the sample index: each dimension's scramble has to be shared by all
-    // of a pixel's samples, or their points are not one stratified sequence.
-    Sampler split() const { return Sampler(key_, 0x5eed, index_, ld_); }
+    // An independent stream derived from this one (for another branch of a path), one per
+    // `stream` number; with low discrepancy, the same sample index in a fresh set of
+    // dimensions. Its key must not depend on the sample index: each dimension's scramble
+    // has to be shared by all of a pixel's samples, or their points are not one stratified
+    // sequence.
+    Sampler split(uint64_t stream) const { return Sampler(key_, 0x5eed + stream, index_, ld_); }
 
     // Beyond the first decisions of a path (camera, channel, the first few events) the
     // stratification is lost to diverging path lengths anyway, and hashing would cost long

@@ -209,7 +209,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
                 // 6e-4 of an exact integral (tests/native/test_atmosphere.py).
                 // For the MIS weights, the phase strategy's chance to fly through: T per
                 // channel under delta tracking, the channel average under the guided free
-                // flight, which decides for all channels at once (see radiance_path).
+                // flight, which decides for all channels at once (see guided_flight).
                 const Spectrum T = exp(-sun_optical_depth(m, ray, t_end));
                 T_ray *= T;
                 r_u *= guided_air(m) ? Spectrum(average(T)) : T;
@@ -288,10 +288,24 @@ void check_tracer_supports(const Scene &scene, Tracer tracer) {
 
 namespace {
 
-// Which part of the camera ray's first medium segment a path estimates (see radiance()).
+// The camera's ray, until its path first scatters, is split on the scattering media it
+// crosses into two estimates that add up to the usual one: a branch that crosses the
+// medium's segment without a tentative collision (weighted by that probability, T_maj) and
+// branches forced to collide in it (weighted by 1 - T_maj). Plain free flight would pick
+// one of the two at random and spend the pixel's samples on whichever the draw favoured: a
+// bank of fog half transparent to the camera is then noise between what lies behind it and
+// the light it scatters. The air is split only where the camera stands in it: a segment of
+// air farther on is cut at the shapes' sun shadows (fly_through_air) and its collisions are
+// dear. kCollideBranches forced collisions per split (one in the air), at most
+// kMaxCameraSplits splits per camera ray (measurements: bench/RESULTS.md, "Constants chosen
+// by measurement").
+constexpr int kCollideBranches = 4;
+constexpr int kMaxCameraSplits = 8;
+
+// Which part of a camera ray's medium segment a path estimates (see above).
 enum class Branch { All, PassThrough, Collide };
 
-// The camera ray's first intersection, found once for both of its branches.
+// Where a split segment ends, found once for all of its branches.
 struct FirstHit {
     bool hit;
     Intersection its;
@@ -312,9 +326,9 @@ struct Path {
     Ray ray;
     int medium;
     Branch branch;
-    // The sample's radiance from the camera's other branch (drawn from a stream of its
+    // The sample's radiance from the camera's other branches (drawn from streams of their
     // own), which Russian roulette's check counts with the path's L.
-    const Spectrum gathered;
+    Spectrum gathered{0.0};
     Spectrum L{0.0}, beta{1.0}, r_u{1.0}, r_l{1.0};
     const int channel;
     int depth = 0;                       // real scattering events so far
@@ -327,13 +341,19 @@ struct Path {
     // its density at the vertex, which depends on the light the path finds.
     std::optional<SegmentVertex> scattered_at;
     Spectrum r_ld{0.0};
+    // The camera ray's medium segments: the one the path is in (counted at each change of
+    // medium), the last one split, and whether this path may split (the forced collisions'
+    // branches do not: one split per segment and sample).
+    int segment = 0, split_at = -1;
+    bool may_split = true;
 
-    Path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config, Branch branch,
-         const Spectrum &gathered)
+    Path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config)
         : scene(scene), config(config), feat(features_of(config)), sampler(sampler), ray(ray), medium(medium),
-          branch(branch), gathered(gathered), channel(std::min(int(sampler.next_1d() * 3), 2)), prev_p(ray.o) {}
+          branch(Branch::All), channel(std::min(int(sampler.next_1d() * 3), 2)), prev_p(ray.o) {}
 
-    Spectrum trace(const FirstHit *first);
+    Spectrum trace(const FirstHit *first = nullptr);
+    bool splits_segment() const;
+    Spectrum split(bool hit, const Intersection &its);
 
     // Steps through the current medium up to t_end.
     Step fly_through_air(bool hit, const Intersection &its, Real t_end);
@@ -373,6 +393,7 @@ Spectrum Path::trace(const FirstHit *first) {
         } else {
             hit = scene.intersect(ray, its, medium);
         }
+        if (medium >= 0 && splits_segment()) return split(hit, its);
         const Real t_end = hit ? its.t : ray.t_max;
         if (medium >= 0) {
             const Step step = feat.scatter && guided_air(scene.media[medium]) ? fly_through_air(hit, its, t_end)
@@ -387,6 +408,39 @@ Spectrum Path::trace(const FirstHit *first) {
         const Step step = at_surface(its);
         if (step == Step::Ended) return L;
     }
+}
+
+bool Path::splits_segment() const {
+    if (!may_split || split_at == segment || segment >= kMaxCameraSplits || depth > 0 || ray_kind != RayKind::Camera ||
+        !feat.scatter)
+        return false;
+    const Medium &m = scene.media[medium];
+    if (std::holds_alternative<AtmosphereMedium>(m)) return segment == 0;
+    const auto *h = std::get_if<HomogeneousMedium>(&m);
+    return !(h && is_black(h->sigma_s));
+}
+
+// Splits the segment that ends at `its` (see Branch): this path crosses it, then copies of
+// its state at the split, each on a stream of its own, are forced to collide.
+Spectrum Path::split(bool hit, const Intersection &its) {
+    split_at = segment;
+    const FirstHit first{hit, its};
+    Path collide = *this;
+    collide.may_split = false;
+    collide.branch = Branch::Collide;
+    collide.L = Spectrum(0.0);
+    const int branches = std::holds_alternative<AtmosphereMedium>(scene.media[medium]) ? 1 : kCollideBranches;
+    const Sampler at_split = sampler;
+    branch = Branch::PassThrough;
+    const Spectrum through = trace(&first);
+    Spectrum collided(0.0);
+    for (int k = 0; k < branches; ++k) {
+        Path path = collide;
+        path.gathered = gathered + through + collided / Real(branches);
+        sampler = at_split.split(uint64_t(segment * kCollideBranches + k));
+        collided += path.trace(&first);
+    }
+    return through + collided / Real(branches);
 }
 
 // Medium emission sigma_a Le at a tentative collision, found with density
@@ -785,7 +839,9 @@ Step Path::at_surface(const Intersection &its) {
     // kind of ray, through a mask.
     const auto pass_through = [&] {
         if (++null_crossings > kMaxNullCrossings) return Step::Ended;
-        medium = medium_after_crossing(shape, ray.d, its.n, medium);
+        const int next = medium_after_crossing(shape, ray.d, its.n, medium);
+        segment += next != medium;
+        medium = next;
         const Real t_left = ray.t_max - its.t;
         ray = spawn_ray(its.p, its.n, ray.d, t_left);
         return Step::NewRay;
@@ -837,33 +893,10 @@ Step Path::at_surface(const Intersection &its) {
     return roulette() ? Step::NewRay : Step::Ended;
 }
 
-// `gathered`: see Path; `first`: where `ray` meets the scene, if known.
-Spectrum radiance_path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config,
-                       Branch branch, const Spectrum &gathered = Spectrum(0.0), const FirstHit *first = nullptr) {
-    return Path(scene, ray, medium, sampler, config, branch, gathered).trace(first);
-}
-
 }  // namespace
 
-// A camera ray that starts inside a scattering medium is split on its first segment into
-// two estimates that add up to the usual one: the path that crosses the segment without
-// a tentative collision (weighted by that probability, T_maj) and the path forced to
-// collide in it (weighted by 1 - T_maj). Plain free flight would pick one of the two at
-// random, and spend the pixel's samples on whichever branch the draw favoured.
 Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config) {
-    const Features feat = features_of(config);
-    bool split = medium >= 0 && feat.scatter;
-    if (split) {
-        const auto *h = std::get_if<HomogeneousMedium>(&scene.media[medium]);
-        split = !(h && is_black(h->sigma_s));
-    }
-    if (!split) return radiance_path(scene, ray, medium, sampler, config, Branch::All);
-    Sampler second = sampler.split();
-    FirstHit first;
-    first.hit = scene.intersect(ray, first.its, medium);
-    const Spectrum through =
-        radiance_path(scene, ray, medium, sampler, config, Branch::PassThrough, Spectrum(0.0), &first);
-    return through + radiance_path(scene, ray, medium, second, config, Branch::Collide, through, &first);
+    return Path(scene, ray, medium, sampler, config).trace();
 }
 
 }  // namespace volpath
