@@ -18,10 +18,7 @@ its pixels' and channels' mean; the image's error is the pixel-weighted RMS over
 blocks. tests/stats/test_adaptive.py checks that the spread of independent renders, on
 screen, is the target to within 20 %.
 
-The rounds. Every pixel first takes ``min_spp`` samples (16: from 4 samples per half, a
-block's estimate is too often far below its error where a few samples carry most of the
-light, and blocks that stopped on it left the image a fifth above the target). After each
-round, water-filling
+The rounds. Every pixel first takes ``min_spp`` samples. After each round, water-filling
 finds the level E* to which the blocks above it must be brought so that the image's error
 is the target (blocks below it, or stopped at the sample cap, keep theirs); each such block
 takes the samples that its error predicts it needs (error ~ 1 / sqrt(n)), at least a
@@ -40,7 +37,7 @@ from . import _core
 from .tonemap import auto_exposure, display
 
 BLOCK = 8
-MIN_SPP = 16
+MIN_SPP = 8
 SLACK, AIM = 1.05, 0.95
 
 

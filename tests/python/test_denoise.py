@@ -57,11 +57,9 @@ def test_render_returns_the_passes_it_was_asked_for_with_the_same_image():
 
 
 def test_denoised_render_is_closer_to_the_reference_and_keeps_the_means():
-    # At 1 spp the denoised image must be much closer to a 1024-spp reference on the display
-    # than the noisy one (measured: 2.2-2.5x over three seeds; at 4 spp 1.9-2.1x, since the
-    # camera's split segments left the noisy image little noise), and its 8x8 block means
-    # within 10 % of the reference's (the bias a denoiser may leave: it smooths, it does not
-    # relight).
+    # At 4 spp the denoised image must be much closer to a 1024-spp reference on the display
+    # than the noisy one (measured: 3x), and its 8x8 block means within 10 % of the
+    # reference's (the bias a denoiser may leave: it smooths, it does not relight).
     scene = volpath.load_string(
         S.scene(
             S.camera(res=32, spp=4),
@@ -73,12 +71,12 @@ def test_denoised_render_is_closer_to_the_reference_and_keeps_the_means():
         )
     )
     reference = volpath.render(scene, spp=1024, seed=99)
-    noisy = volpath.render(scene, spp=1, seed=1)
-    denoised = volpath.render(scene, spp=1, seed=1, denoise=True)
+    noisy = volpath.render(scene, spp=4, seed=1)
+    denoised = volpath.render(scene, spp=4, seed=1, denoise=True)
     assert scene.last_render["denoised"] and np.isfinite(denoised).all() and denoised.min() >= 0
     e = auto_exposure(reference)
     error = lambda im: np.sqrt(np.mean((display(im, e) - display(reference, e)) ** 2))
-    assert error(denoised) < error(noisy) / 1.6, (error(denoised), error(noisy))
+    assert error(denoised) < error(noisy) / 2, (error(denoised), error(noisy))
     blocks = lambda im: im.reshape(4, 8, 4, 8, 3).mean(axis=(1, 3, 4))
     assert np.allclose(blocks(denoised), blocks(reference), rtol=0.1, atol=0.01 * reference.mean())
 

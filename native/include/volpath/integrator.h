@@ -21,11 +21,11 @@
 // sample can then fall below zero (about one in 10^4-10^5 at sunrise); render() counts it
 // as zero and reports the light that adds.
 //
-// The camera's rays, until their paths first scatter, are split on the scattering media
-// they cross (the air only where the camera stands in it): one branch crosses the medium
-// without a tentative collision, weighted by that probability, and a few are forced to
-// collide in it, which together replace free flight's draw between the two (Branch, in
-// volpath.cpp).
+// The camera's rays, until their paths first scatter, are split on the grid media they
+// cross (homogeneous media and the air only where the camera stands in them): one branch
+// crosses the medium without a tentative collision, weighted by that probability, and one
+// or (in grids) four are forced to collide in it, which together replace free flight's
+// draw between the two (Branch, in volpath.cpp).
 //
 // The tracers with NEE also estimate point and directional lights in homogeneous media
 // from distances drawn for those lights on every segment (equiangular sampling; the

@@ -294,11 +294,13 @@ namespace {
 // branches forced to collide in it (weighted by 1 - T_maj). Plain free flight would pick
 // one of the two at random and spend the pixel's samples on whichever the draw favoured: a
 // bank of fog half transparent to the camera is then noise between what lies behind it and
-// the light it scatters. The air is split only where the camera stands in it: a segment of
-// air farther on is cut at the shapes' sun shadows (fly_through_air) and its collisions are
-// dear. kCollideBranches forced collisions per split (one in the air), at most
-// kMaxCameraSplits splits per camera ray (measurements: bench/RESULTS.md, "Constants chosen
-// by measurement").
+// the light it scatters. Grids are split wherever the camera ray meets them, with
+// kCollideBranches forced collisions, their segments' only NEE. Homogeneous media and the
+// air only where the camera stands in them, with one: a homogeneous segment draws
+// distances for its lights whether or not free flight collides (segment_direct), and a
+// segment of air farther on is cut at the shapes' sun shadows (fly_through_air), its
+// collisions dear. At most kMaxCameraSplits splits per camera ray (measurements:
+// bench/RESULTS.md, "Constants chosen by measurement").
 constexpr int kCollideBranches = 4;
 constexpr int kMaxCameraSplits = 8;
 
@@ -415,7 +417,7 @@ bool Path::splits_segment() const {
         !feat.scatter)
         return false;
     const Medium &m = scene.media[medium];
-    if (std::holds_alternative<AtmosphereMedium>(m)) return segment == 0;
+    if (!std::holds_alternative<GridMedium>(m) && segment != 0) return false;
     const auto *h = std::get_if<HomogeneousMedium>(&m);
     return !(h && is_black(h->sigma_s));
 }
@@ -429,7 +431,7 @@ Spectrum Path::split(bool hit, const Intersection &its) {
     collide.may_split = false;
     collide.branch = Branch::Collide;
     collide.L = Spectrum(0.0);
-    const int branches = std::holds_alternative<AtmosphereMedium>(scene.media[medium]) ? 1 : kCollideBranches;
+    const int branches = std::holds_alternative<GridMedium>(scene.media[medium]) ? kCollideBranches : 1;
     const Sampler at_split = sampler;
     branch = Branch::PassThrough;
     const Spectrum through = trace(&first);
