@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "convert.h"
+#include "volpath/mesh_files.h"
 #include "volpath/render.h"
 
 using namespace volpath;
@@ -192,6 +193,26 @@ py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int trace
     info["clamped_share"] = stats.clamped_share;
     info["cancelled"] = stats.cancelled;
     return py::make_tuple(image, info);
+}
+
+// An (n, columns) array that owns the vector's memory (no copy), or None when it is empty.
+template <class T>
+py::object columns(std::vector<T> &&values, py::ssize_t width) {
+    if (values.empty()) return py::none();
+    auto *owned = new std::vector<T>(std::move(values));
+    py::capsule owner(owned, [](void *p) { delete static_cast<std::vector<T> *>(p); });
+    return py::array_t<T>({py::ssize_t(owned->size()) / width, width}, owned->data(), owner);
+}
+
+// (positions, triangles, normals or None, uvs or None) from read_obj or read_ply.
+py::tuple mesh_file(MeshArrays (*read)(const std::string &), const std::string &path) {
+    MeshArrays mesh;
+    {
+        py::gil_scoped_release release;
+        mesh = read(path);
+    }
+    return py::make_tuple(columns(std::move(mesh.positions), 3), columns(std::move(mesh.triangles), 3),
+                          columns(std::move(mesh.normals), 3), columns(std::move(mesh.uvs), 2));
 }
 
 }  // namespace
@@ -576,6 +597,14 @@ PYBIND11_MODULE(_core, m) {
           py::arg("light_distances") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
           py::arg("low_discrepancy") = true, py::arg("first_sample") = 0, py::arg("starts") = py::none(),
           py::arg("counts") = py::none(), py::arg("halves") = py::none(), py::arg("features") = py::none());
+
+    py::register_exception<MeshFileError>(m, "MeshFileError", PyExc_ValueError);
+    m.def(
+        "read_obj", [](const std::string &path) { return mesh_file(read_obj, path); }, py::arg("path"),
+        "(positions, triangles, normals or None, uvs or None) from a Wavefront OBJ file.");
+    m.def(
+        "read_ply", [](const std::string &path) { return mesh_file(read_ply, path); }, py::arg("path"),
+        "(positions, triangles, normals or None, uvs or None) from a PLY file (ASCII or binary).");
 
     bind_probes(m);
 }
