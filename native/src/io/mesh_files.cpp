@@ -72,6 +72,9 @@ void fan(const std::vector<int64_t> &polygon, std::vector<int64_t> &triangles) {
 MeshArrays read_obj(const std::string &path) {
     const std::string text = read_all(path);
     std::vector<double> v, vt, vn;
+    // Each corner's vertex (-1: none yet): one with a position alone (the common "f 1 2 3")
+    // found by its index, others by (v, vt, vn).
+    std::vector<int64_t> plain;
     std::unordered_map<std::array<int64_t, 3>, int64_t, CornerHash> corners;
     MeshArrays out;
     bool every_uv = true, every_normal = true;
@@ -117,15 +120,18 @@ MeshArrays read_obj(const std::string &path) {
                     start = slash + 1;
                 }
                 if (corner[0] < 0) fail("face refers to a missing vertex");
-                const auto [at, added] = corners.try_emplace(corner, int64_t(out.positions.size() / 3));
-                if (added) {
+                if (corner[1] < 0 && corner[2] < 0 && plain.size() <= size_t(corner[0])) plain.resize(v.size() / 3, -1);
+                int64_t &vertex =
+                    corner[1] < 0 && corner[2] < 0 ? plain[corner[0]] : corners.try_emplace(corner, -1).first->second;
+                if (vertex < 0) {
+                    vertex = int64_t(out.positions.size() / 3);
                     out.positions.insert(out.positions.end(), &v[3 * corner[0]], &v[3 * corner[0]] + 3);
                     every_uv &= corner[1] >= 0, every_normal &= corner[2] >= 0;
                     if (corner[1] >= 0) out.uvs.insert(out.uvs.end(), &vt[2 * corner[1]], &vt[2 * corner[1]] + 2);
                     if (corner[2] >= 0)
                         out.normals.insert(out.normals.end(), &vn[3 * corner[2]], &vn[3 * corner[2]] + 3);
                 }
-                polygon.push_back(at->second);
+                polygon.push_back(vertex);
             }
             if (polygon.size() < 3) fail("a face needs at least 3 vertices");
             fan(polygon, out.triangles);
