@@ -73,8 +73,9 @@ def write_obj(path, positions, triangles):
         np.savetxt(f, triangles + 1, fmt="f %d %d %d")
 
 
-def measure(renderer, scene):
-    run = subprocess.run([sys.executable, "-c", CHILD, renderer, scene], capture_output=True, text=True, cwd=ROOT)
+def measure(renderer, scene, child=CHILD):
+    """The dictionary a fresh process running `child` prints after RESULT."""
+    run = subprocess.run([sys.executable, "-c", child, renderer, scene], capture_output=True, text=True, cwd=ROOT)
     results = [line.split("RESULT ", 1)[1] for line in run.stdout.splitlines() if "RESULT " in line]
     if not results:  # (Mitsuba may crash at exit, after its result)
         sys.exit(f"{renderer} failed on {scene}:\n{run.stdout[-2000:]}{run.stderr[-2000:]}")

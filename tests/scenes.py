@@ -1,5 +1,18 @@
 """Small scenes built as XML strings for the tests."""
 
+import numpy as np
+
+
+def lookat(origin, target, up=(0, 1, 0)):
+    """Mitsuba's lookat as a 4x4 camera to_world."""
+    origin, target = np.asarray(origin, float), np.asarray(target, float)
+    d = (target - origin) / np.linalg.norm(target - origin)
+    left = np.cross(up, d)
+    left /= np.linalg.norm(left)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, np.cross(d, left), d, origin
+    return m
+
 
 def camera(res=16, fov=40, origin="0, 0, 5", target="0, 0, 0", spp=16, medium=None, extra="", up="0, 1, 0"):
     med = f'<ref id="{medium}"/>' if medium else ""

@@ -138,7 +138,11 @@ def _info(args, parser):
         + (f", inside medium {cam['medium']}" if cam["medium"] >= 0 else "")
     )
     print(f"  settings  {scene.spp} spp, tracer {scene.tracer}, max_depth {scene.max_depth}, rr_depth {scene.rr_depth}")
-    print(f"  shapes    {len(s['shapes'])}")
+    grouped = sum("group" in sh for sh in s["shapes"])
+    print(
+        f"  shapes    {len(s['shapes'])}"
+        + (f" ({grouped} in shape groups), {s['instances']} instances" if grouped or s["instances"] else "")
+    )
     for sh in s["shapes"]:
         extra = (
             f"{sh['triangles']} triangles"
@@ -147,7 +151,8 @@ def _info(args, parser):
             if sh.get("box")
             else f"radius {sh['radius']:g}"
         )
-        print(f"    {sh['type']:<10} {extra}{', emitter' if sh['emitter'] else ''}")
+        group = f", in group {sh['group']}" if "group" in sh else ""
+        print(f"    {sh['type']:<10} {extra}{', emitter' if sh['emitter'] else ''}{group}")
     print(f"  media     {len(s['media'])}")
     for m in s["media"]:
         tau = m.get("optical_thickness")

@@ -10,6 +10,8 @@ Everything that cannot be exported faithfully is listed in ``exported.warnings``
 engine shows them in Blender's report); what cannot be exported at all raises ExportError.
 """
 
+from collections import Counter
+
 import numpy as np
 
 from . import camera, convert, lights, materials, meshes, volumes, world
@@ -90,9 +92,7 @@ def export_scene(depsgraph, mesh_cache=None):
         return materials_by_name[name]
 
     def add(name, entry):
-        k, i = name, 1
-        while k in d:
-            k, i = f"{name}.{i}", i + 1
+        k = _unique(name, d)
         d[k] = entry
         return k
 
@@ -105,8 +105,9 @@ def export_scene(depsgraph, mesh_cache=None):
                 if entry["type"] == "sun":
                     suns[k] = obj.original.name
         elif obj.type in _CONVERTIBLE:
-            for name, shape in _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
-                add(name, shape)
+            placed = _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report)
+            if placed.parts:
+                add(obj.name, placed)
         elif obj.type == "VOLUME":
             slot = obj.material_slots[0].material if obj.material_slots else None
             entry = _volume_shape(obj, inst.matrix_world, material(slot)[0].medium, settings, report, exterior)
@@ -116,7 +117,44 @@ def export_scene(depsgraph, mesh_cache=None):
                     sequences[k] = obj.original.name
         elif obj.type not in ("CAMERA", "EMPTY", "ARMATURE", "LIGHT_PROBE", "SPEAKER", "LATTICE"):
             report.warn(f"object '{obj.name}': {obj.type.lower()} objects are not supported (skipped)")
-    return Exported(d, report, suns, sequences)
+    return Exported(_place_meshes(d), report, suns, sequences)
+
+
+def _unique(name, taken):
+    k, i = name, 1
+    while k in taken:
+        k, i = f"{name}.{i}", i + 1
+    return k
+
+
+class _Placed:
+    """One object instance's mesh shapes (object space), its map, and what it shares with
+    other instances of the same mesh: ``key`` (the mesh datablock, its materials and ray
+    visibility), or None where it cannot be instanced (it emits or holds a medium)."""
+
+    def __init__(self, key, parts, to_world):
+        self.key, self.parts, self.to_world = key, parts, to_world
+
+
+def _place_meshes(d):
+    """The scene with each mesh object in place: meshes that several object instances share
+    (linked duplicates, collection, particle and geometry-node instances) as one shapegroup
+    and an instance per object; the others as world-placed shapes, one per material."""
+    counts = Counter(v.key for v in d.values() if isinstance(v, _Placed) and v.key is not None)
+    out, groups = {}, {}
+    for k, v in d.items():
+        if not isinstance(v, _Placed):
+            out[k] = v
+        elif counts[v.key] > 1:
+            if v.key not in groups:
+                groups[v.key] = _unique(f"{v.key[0][0]}.group", d.keys() | out.keys())
+                out[groups[v.key]] = {"type": "shapegroup", **dict(v.parts)}
+            out[k] = {"type": "instance", "group": {"type": "ref", "id": groups[v.key]}, "to_world": v.to_world}
+        else:
+            for name, shape in v.parts:
+                part = k if len(v.parts) == 1 else _unique(f"{k}.{name}", d.keys() | out.keys())
+                out[part] = dict(shape, to_world=v.to_world)
+    return out
 
 
 def _volume_shape(obj, matrix_world, medium, settings, report, exterior):
@@ -146,8 +184,9 @@ def drop_meshes(mesh_cache, objects):
 
 
 def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
-    """(name, shape) per material slot of one mesh instance; the triangle arrays of a mesh
-    datablock are computed once and shared by its instances (unless modifiers differ)."""
+    """One mesh instance's shapes (a _Placed): one per material slot, named by the slot's
+    material; the triangle arrays of a mesh datablock are computed once and shared by its
+    instances (unless modifiers differ)."""
     slots = [s.material for s in obj.material_slots]
     uv_maps = {material(m)[0].uv_map for m in slots} - {None}
     uv_map = min(uv_maps) if uv_maps else None
@@ -160,20 +199,21 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
         data.library.name if getattr(data, "library", None) else None,
         obj.original.name if obj.modifiers else "",
         uv_map,
+        data.as_pointer(),  # meshes that geometry nodes make share names ("Mesh"), not addresses
     )
     if key not in meshes_by_data:
         meshes_by_data[key] = meshes.triangles(obj, uv_map)
     parts = meshes_by_data[key]
-    to_world = convert.matrix(inst.matrix_world)
+    shapes, names, shared = [], [], True
+    hidden = lights.hidden_from(obj)
     for index, (positions, indices, normals, uvs) in parts.items():
         m = slots[index] if index < len(slots) else None
         mat, interior = material(m)
         if mat.uv_map is not None and uvs is None:
             report.warn(f"object '{obj.name}': no UV map '{mat.uv_map}' for its textures; they read (0, 0)")
-        shape = {"type": "mesh", "positions": positions, "indices": indices, "to_world": to_world, "bsdf": mat.bsdf}
+        shape = {"type": "mesh", "positions": positions, "indices": indices, "bsdf": mat.bsdf}
         if normals is not None:
             shape["normals"] = normals
-        hidden = lights.hidden_from(obj)
         if hidden:
             shape["hidden_from"] = hidden
         if uvs is not None:
@@ -185,7 +225,10 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
             shape["interior"] = interior
             if exterior is not None:
                 shape["exterior"] = exterior
-        yield (obj.name if len(parts) == 1 else f"{obj.name}.{m.name if m else index}"), shape
+        shared &= mat.radiance is None and interior is None
+        shapes.append((m.name if m else str(index), shape))
+        names.append(m.name if m else None)
+    return _Placed((key, tuple(names), hidden) if shared else None, shapes, convert.matrix(inst.matrix_world))
 
 
 def write_directory(exported, directory):

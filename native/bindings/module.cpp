@@ -442,7 +442,8 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions,
                const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
-               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided) {
+               std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided,
+               int group) {
                 TriangleMesh mesh;
                 mesh.positions = points(positions, "positions");
                 if (normals) mesh.normals = points(*normals, "normals");
@@ -460,11 +461,19 @@ PYBIND11_MODULE(_core, m) {
                 Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
                 return s.add_shape_mesh(std::move(mesh),
                                         shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
-                                        radiance ? &Le : nullptr, emitter_twosided);
+                                        radiance ? &Le : nullptr, emitter_twosided, group);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false)
+            py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false,
+            py::arg("group") = -1)
+        .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
+        .def(
+            "add_instance",
+            [](Scene &s, int group, const DoubleArray &to_world, const DoubleArray &to_local) {
+                return s.add_instance(group, transform(to_world), transform(to_local));
+            },
+            py::arg("group"), py::arg("to_world"), py::arg("to_local"))
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,

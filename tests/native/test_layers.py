@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import volpath
+from scenes import lookat
 from volpath import _core
 from volpath.testing import chi2_directions
 
@@ -105,17 +106,6 @@ def lit_plane(bsdf, toward_light, irradiance=2.0):
             "sun": {"type": "directional", "direction": d.tolist(), "irradiance": [irradiance] * 3},
         }
     )
-
-
-def lookat(origin, target, up=(0, 1, 0)):
-    """Mitsuba's lookat as a 4x4 camera to_world."""
-    origin, target = np.asarray(origin, float), np.asarray(target, float)
-    d = (target - origin) / np.linalg.norm(target - origin)
-    left = np.cross(up, d)
-    left /= np.linalg.norm(left)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, np.cross(d, left), d, origin
-    return m
 
 
 def placed(scale=1.0, flip=False, z=0.0):

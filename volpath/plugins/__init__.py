@@ -10,7 +10,10 @@ KINDS = {
     "film": {"hdrfilm"},
     "sampler": {"independent", "stratified", "multijitter", "ldsampler", "orthogonal"},
     "rfilter": {"box", "gaussian", "tent"},
-    "shape": {"sphere", "rectangle", "cube", "obj", "ply", "mesh", "disk", "cylinder", "serialized"},
+    "shape": {
+        *("sphere", "rectangle", "cube", "obj", "ply", "mesh", "shapegroup", "instance"),
+        *("disk", "cylinder", "serialized"),
+    },
     "bsdf": {
         "null",
         "diffuse",

@@ -26,9 +26,11 @@ class Builder:
         self.media = {}  # id(dict) -> native index
         self.bsdfs = {}
         self.textures = {}  # id(dict) -> native index
+        self.groups = {}  # id(dict) of a shapegroup -> native index
         self.building = set()
         self.summary = {
             "shapes": [],
+            "instances": 0,
             "media": [],
             "emitters": [],
             "bsdfs": [],

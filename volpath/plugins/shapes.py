@@ -1,5 +1,6 @@
 """Shape plugins: spheres, analytic boxes (cube), and meshes (rectangle, cube, OBJ, PLY,
-numpy arrays in a dictionary), with their BSDF, area emitter and medium interface."""
+numpy arrays in a dictionary), with their BSDF, area emitter and medium interface; shape
+groups of meshes and their instances (Mitsuba's shapegroup and instance)."""
 
 import numpy as np
 
@@ -7,7 +8,12 @@ from ..meshes import Mesh, load_mesh
 from . import bsdfs, kind_of
 
 
-def build(b, d):
+def build(b, d, group=-1):
+    """One shape, in the scene or (group >= 0) in a shape group."""
+    if d.get("type") == "shapegroup":
+        return shape_group(b, d)
+    if d.get("type") == "instance":
+        return instance(b, d)
     p = b.params(d, "shape")
     to_world = p.transform()
     bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
@@ -42,6 +48,10 @@ def build(b, d):
     if bsdf_index is None:
         bsdf_index = bsdfs.default(b)
     medium_interface = p.has("interior") or p.has("exterior")
+    if group >= 0 and (radiance is not None or medium_interface):
+        raise p.error("a shape in a shapegroup can neither emit nor bound a medium")
+    if group >= 0 and p.type == "sphere":
+        raise p.error("a shapegroup holds meshes only (rectangle, cube, obj, ply, mesh), not spheres")
     common = dict(
         bsdf=bsdf_index,
         interior=interior,
@@ -74,7 +84,7 @@ def build(b, d):
                 "loc": p.loc,
             }
         )
-    elif p.type == "cube" and radiance is None and np.linalg.cond(to_world[:3, :3]) < 1e12:
+    elif p.type == "cube" and radiance is None and group < 0 and np.linalg.cond(to_world[:3, :3]) < 1e12:
         # An analytic box (one primitive); emitting or flattened cubes stay meshes.
         # Under a mirroring map the mesh's faces turn inward; the box's do too.
         box_info = {k: v for k, v in common.items() if k not in ("radiance", "emitter_twosided")}
@@ -96,7 +106,9 @@ def build(b, d):
         elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
             positions, triangles, normals, uvs = mesh_arrays(p)
         else:
-            raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh)")
+            raise p.error(
+                "unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh, shapegroup, instance)"
+            )
         positions = transform_points(to_world, positions)
         if normals is not None:
             normals = transform_normals(to_world, normals)
@@ -104,7 +116,7 @@ def build(b, d):
             triangles = triangles[:, ::-1].copy()
             if normals is not None:
                 normals = -normals
-        b.native.add_mesh(positions, triangles, normals, uvs=uvs, **common)
+        b.native.add_mesh(positions, triangles, normals, uvs=uvs, group=group, **common)
         bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
         b.summary["shapes"].append(
             {
@@ -113,12 +125,55 @@ def build(b, d):
                 "emitter": radiance is not None,
                 "bsdf": bsdf_type,
                 "loc": p.loc,
+                **({"group": group} if group >= 0 else {}),
             }
         )
     if interior >= 0:
         b.medium_bounds.setdefault(interior, []).append(bounds)
     if radiance is not None:
         b.summary["emitters"].append({"type": "area", "radiance": radiance.tolist(), "loc": p.loc})
+    p.check()
+
+
+def shape_group(b, d):
+    """The native index of a shapegroup, built once however many instances name it: its
+    shapes in the group's own space."""
+    if id(d) in b.groups:
+        return b.groups[id(d)]
+    p = b.params(d, "shape")
+    index = b.groups[id(d)] = b.native.add_group()
+    for key, v in d.items():
+        if key.startswith("__") or not isinstance(v, dict):
+            continue
+        member = b.resolve(v)
+        if kind_of(member) != "shape":
+            raise p.error(f"a shapegroup holds shapes only ('{key}' is a {kind_of(member) or member.get('type')})")
+        if member.get("type") in ("shapegroup", "instance"):
+            raise p.error(f"shapegroups do not nest ('{key}' is a {member['type']})")
+        build(b, member, group=index)
+        p.read.add(key)
+    p.check()
+    return index
+
+
+def instance(b, d):
+    """An instance: a shapegroup, named by a reference, placed by ``to_world``."""
+    p = b.params(d, "shape")
+    to_world = p.transform()
+    groups = []
+    for key, v in d.items():
+        if key.startswith("__") or key == "to_world" or not isinstance(v, dict):
+            continue
+        r = b.resolve(v)
+        if r.get("type") != "shapegroup":
+            raise p.error(f"an instance names a shapegroup ('{key}' is a {r.get('type')})")
+        groups.append(r)
+        p.read.add(key)
+    if len(groups) != 1:
+        raise p.error(f"an instance names exactly one shapegroup (found {len(groups)})")
+    group = shape_group(b, groups[0])
+    b.native.add_instance(group, to_world, np.linalg.inv(to_world))
+    b.summary["instances"] += 1
     p.check()
 
 

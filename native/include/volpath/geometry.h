@@ -58,13 +58,26 @@ struct Intersection {
     Vec3 ns;  // shading normal, on the same side as n
     int shape = -1;
     uint32_t prim = 0;
+    int instance = -1;  // the instance through which a shape group's shape was hit
 };
 
 // One entry per scene shape: a mesh, a sphere or a box.
 struct ShapeGeometry {
-    enum class Kind : uint8_t { Mesh, Sphere, Box } kind = Kind::Mesh;
-    int index = 0;  // into Geometry::meshes, spheres or boxes
+    // (Instance: only a BVH's primitive, one instance of a shape group.)
+    enum class Kind : uint8_t { Mesh, Sphere, Box, Instance } kind = Kind::Mesh;
+    int index = 0;   // into Geometry::meshes, spheres or boxes
+    int group = -1;  // the shape group it belongs to: traced only through its instances
     bool is_sphere() const { return kind == Kind::Sphere; }
+};
+
+// A shape group (meshes in their own space, with their own BVH) placed in the scene by an
+// affine map: one primitive of the scene's BVH, whose rays are mapped into the group's
+// space, where distances along them stay the world ray's (the map is affine, the
+// direction is not renormalised).
+struct Instance {
+    int group = 0;
+    Transform to_world, to_local;
+    bool mirrored = false;  // det(to_world) < 0: faces turn as a flattened copy's would
 };
 
 class Geometry {
@@ -73,10 +86,15 @@ public:
     std::vector<Sphere> spheres;
     std::vector<Box> boxes;
     std::vector<ShapeGeometry> shapes;
+    std::vector<Instance> instances;
 
-    int add_mesh(TriangleMesh mesh);
+    // A mesh in shape group `group` (see add_group), or in the scene itself (-1).
+    int add_mesh(TriangleMesh mesh, int group = -1);
     int add_sphere(const Sphere &sphere);
     int add_box(const Box &box);
+    int add_group() { return group_count_++; }
+    int group_count() const { return group_count_; }
+    int add_instance(int group, const Transform &to_world, const Transform &to_local);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
     // The closest hit on any shape but `skip`.
@@ -97,22 +115,24 @@ public:
     std::optional<bool> intersect_from_inside(int shape, const Ray &ray, Intersection &its) const;
     // The sphere or box that holds every other primitive (a fog box around the scene), or
     // -1; set by build(). A ray that runs outside it can hit nothing.
-    int enclosure() const { return enclosure_ == kNoPrim ? -1 : prims_[enclosure_].shape; }
+    int enclosure() const { return enclosure_ == kNoPrim ? -1 : top_.prims[enclosure_].shape; }
     bool outside_enclosure(const Ray &ray) const { return enclosure_ != kNoPrim && moves_away_from_enclosure(ray); }
     Bounds bounds() const;
+    // In the world: a shape group's shape's are the bounds of all the group's instances.
     Bounds shape_bounds(int shape) const;
     // Whether the box `b`, grown by `eps`, may reach the surface of the shape (a sphere's or
     // box's surface exactly; a mesh's wherever its bounds overlap `b`).
     bool may_touch_surface(int shape, const Bounds &b, Real eps) const;
     // Bytes held: the shapes as given (meshes' vertices, normals and triangles, spheres,
-    // boxes) and the acceleration structure (BVH nodes, primitives, their vertices).
+    // boxes, instances) and the acceleration structures (BVH nodes, primitives, their
+    // vertices; the scene's and each group's).
     size_t shape_bytes() const;
     size_t bvh_bytes() const;
 
 private:
     struct Primitive {
-        int shape;
-        uint32_t index;  // the triangle in its mesh
+        int shape;       // -1 for an instance
+        uint32_t index;  // the triangle in its mesh, or the instance
     };
     // Bounds as {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}: a ray picks each axis's near and far
     // plane by its direction's signs, with no min/max per axis.
@@ -122,35 +142,56 @@ private:
         uint16_t count = 0;  // primitives in a leaf, 0 for an inner node
         uint8_t axis = 0;
     };
-    std::vector<Primitive> prims_;
-    // Per primitive, in BVH order: a triangle's three vertices side by side (no index
-    // chain to follow during traversal); unused for spheres and boxes.
-    std::vector<std::array<Vec3, 3>> vertices_;
-    std::vector<ShapeGeometry::Kind> kind_;
-    std::vector<Node> nodes_;
-    // Per shape: its primitive (into prims_) if it is a sphere or box empty inside, else kNoPrim.
+    // One BVH: the scene's, or a shape group's (of its meshes alone).
+    struct Bvh {
+        std::vector<Primitive> prims;
+        // Per primitive, in BVH order: a triangle's three vertices side by side (no index
+        // chain to follow during traversal); unused for the other kinds.
+        std::vector<std::array<Vec3, 3>> vertices;
+        std::vector<ShapeGeometry::Kind> kind;
+        std::vector<Node> nodes;
+        Bounds bounds() const;
+    };
+    Bvh top_;
+    std::vector<Bvh> groups_;  // per shape group
+    int group_count_ = 0;
+    // Per group: the world bounds of all its instances (its shapes' bounds in the scene).
+    std::vector<Bounds> group_bounds_;
+    // Per shape: its primitive (into top_.prims) if it is a sphere or box empty inside, else kNoPrim.
     static constexpr uint32_t kNoPrim = ~0u;
     std::vector<uint32_t> solid_prim_;
-    uint32_t enclosure_ = kNoPrim;  // into prims_
+    uint32_t enclosure_ = kNoPrim;  // into top_.prims
     bool holds(uint32_t solid, const Primitive &p) const;
     bool moves_away_from_enclosure(const Ray &ray) const;
 
     Bounds primitive_bounds(const Primitive &p) const;
     bool overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const;
-    uint32_t build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin, uint32_t end);
+    // The BVH over `prims` (taken).
+    Bvh build_bvh(std::vector<Primitive> prims) const;
+    static uint32_t build_recursive(Bvh &bvh, std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
+                                    uint32_t end);
     struct PreparedRay;  // per-ray set-up of the slab and triangle tests
     // The closest hit so far: its distance, and barycentrics for triangles. The point and
     // normals are worked out once, for the hit that stays (finish).
     struct Hit {
         Real t;
-        uint32_t prim = 0;  // into prims_
+        uint32_t prim = 0;            // into top_.prims, or the instance's group's prims
+        uint32_t instance = kNoPrim;  // the instance hit, if any
         Real b0 = 0, b1 = 0, b2 = 0;
     };
-    bool intersect_primitive(const Primitive &p, const Ray &ray, const PreparedRay &prepared, Real t_max,
+    bool intersect_primitive(const Bvh &bvh, uint32_t i, const Ray &ray, const PreparedRay &prepared, Real t_max,
                              Hit &hit) const;
+    // Calls leaf(i) for each primitive of `bvh` in a node the ray enters before t_max (which
+    // leaf may lower), nearer nodes first.
+    template <typename Leaf>
+    static void walk(const Bvh &bvh, const Ray &ray, const Vec3 &inv_d, const Real &t_max, Leaf &&leaf);
     // The BVH traversal, testing only the primitives of shapes `accept(shape)` takes.
     template <typename Accept>
     bool traverse(const Ray &ray, Intersection &its, Accept &&accept) const;
+    // The intersection in a group's space mapped into the world's (by its.instance).
+    void to_world(Intersection &its) const;
+    // The hit point in its shape's own space (a group's, else the world's).
+    Vec3 local_point(const Intersection &its) const;
     // A sphere's or box's entry and exit distances (t0 <= t1) along the whole line; inv_d:
     // the direction's inverse if the caller has it (else worked out where needed).
     bool solid_roots(uint32_t prim, const Ray &ray, const Vec3 *inv_d, Real &t0, Real &t1) const;

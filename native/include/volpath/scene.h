@@ -69,10 +69,17 @@ struct Scene {
     // Makes one of the BSDF's parameters vary as `param` says (its texture added before).
     void bind_texture(int bsdf, const TexturedParam &param);
     // `radiance`: an area light on the shape (emitting from both faces if `twosided`).
-    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false);
+    // `group`: the shape group it belongs to (see add_group), or -1.
+    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false,
+                       int group = -1);
     int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false);
     int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
-    int add_light(const Light &l);                           // counts point_and_directional
+    // Shape groups hold meshes that neither emit nor bound media, traced only through their
+    // instances: each places the whole group by an affine map (Mitsuba's shapegroup and
+    // instance).
+    int add_group() { return geometry.add_group(); }
+    int add_instance(int group, const Transform &to_world, const Transform &to_local);
+    int add_light(const Light &l);  // counts point_and_directional
     // Replaces light i by another of its kind (an animation's sun); build() then redoes
     // what depends on the lights, not the geometry.
     void set_light(int i, const Light &l);

@@ -1,5 +1,7 @@
 #include "volpath/geometry.h"
 
+#include <stdexcept>
+
 namespace volpath {
 
 Real TriangleMesh::area(size_t i) const {
@@ -48,10 +50,21 @@ Bounds corner_bounds(const Box &box) {
 }
 }  // namespace
 
-int Geometry::add_mesh(TriangleMesh mesh) {
+int Geometry::add_mesh(TriangleMesh mesh, int group) {
+    if (group < -1 || group >= group_count_) throw std::out_of_range("invalid shape group");
     meshes.push_back(std::move(mesh));
-    shapes.push_back({ShapeGeometry::Kind::Mesh, int(meshes.size()) - 1});
+    shapes.push_back({ShapeGeometry::Kind::Mesh, int(meshes.size()) - 1, group});
     return int(shapes.size()) - 1;
+}
+
+int Geometry::add_instance(int group, const Transform &to_world, const Transform &to_local) {
+    if (group < 0 || group >= group_count_) throw std::out_of_range("invalid shape group");
+    const auto &m = to_world.m;
+    const Real det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    instances.push_back({group, to_world, to_local, det < 0});
+    return int(instances.size()) - 1;
 }
 
 int Geometry::add_sphere(const Sphere &sphere) {
@@ -75,6 +88,12 @@ int Geometry::add_box(const Box &box) {
 
 Bounds Geometry::primitive_bounds(const Primitive &p) const {
     Bounds b;
+    if (p.shape < 0) {  // an instance: its group's bounds' corners, mapped
+        const Instance &inst = instances[p.index];
+        const Bounds local = groups_[size_t(inst.group)].bounds();
+        for (int k = 0; k < 8; ++k) b.extend(inst.to_world.point(bounds_corner(local, k)));
+        return b;
+    }
     const ShapeGeometry &s = shapes[p.shape];
     if (s.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[s.index];
@@ -89,81 +108,114 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
     return b;
 }
 
+Bounds Geometry::Bvh::bounds() const {
+    Bounds out;
+    if (nodes.empty()) return out;
+    const Real *b = nodes[0].bounds;
+    out.lo = {b[0], b[1], b[2]}, out.hi = {b[3], b[4], b[5]};
+    return out;
+}
+
+Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
+    Bvh bvh;
+    bvh.prims = std::move(prims);
+    if (bvh.prims.empty()) return bvh;
+    std::vector<Bounds> bounds(bvh.prims.size());
+    std::vector<Vec3> centroids(bvh.prims.size());
+    for (size_t i = 0; i < bvh.prims.size(); ++i) {
+        bounds[i] = primitive_bounds(bvh.prims[i]);
+        centroids[i] = bounds[i].centroid();
+    }
+    bvh.nodes.reserve(2 * bvh.prims.size());
+    build_recursive(bvh, bounds, centroids, 0, uint32_t(bvh.prims.size()));
+    bvh.vertices.assign(bvh.prims.size(), {});
+    bvh.kind.assign(bvh.prims.size(), ShapeGeometry::Kind::Instance);
+    for (size_t i = 0; i < bvh.prims.size(); ++i) {
+        const Primitive &p = bvh.prims[i];
+        if (p.shape < 0) continue;
+        const ShapeGeometry &g = shapes[size_t(p.shape)];
+        bvh.kind[i] = g.kind;
+        if (g.kind != ShapeGeometry::Kind::Mesh) continue;
+        const TriangleMesh &m = meshes[g.index];
+        for (int k = 0; k < 3; ++k) bvh.vertices[i][k] = m.positions[m.triangles[p.index][k]];
+    }
+    return bvh;
+}
+
 void Geometry::build() {
-    prims_.clear();
-    nodes_.clear();
     solid_prim_.assign(shapes.size(), kNoPrim);
     enclosure_ = kNoPrim;
+    // Each group's BVH first: an instance's bounds are its group's.
+    std::vector<std::vector<Primitive>> prims(size_t(group_count_) + 1);  // the scene's last
     for (int s = 0; s < int(shapes.size()); ++s) {
+        auto &list = prims[shapes[s].group < 0 ? size_t(group_count_) : size_t(shapes[s].group)];
         if (shapes[s].kind != ShapeGeometry::Kind::Mesh) {
-            prims_.push_back({s, 0});
+            list.push_back({s, 0});
         } else {
             const auto &m = meshes[shapes[s].index];
             for (uint32_t i = 0; i < m.triangles.size(); ++i) {
-                if (m.area(i) > 0) prims_.push_back({s, i});  // degenerate triangles never hit
+                if (m.area(i) > 0) list.push_back({s, i});  // degenerate triangles never hit
             }
         }
     }
-    if (prims_.empty()) return;
-    std::vector<Bounds> bounds(prims_.size());
-    std::vector<Vec3> centroids(prims_.size());
-    for (size_t i = 0; i < prims_.size(); ++i) {
-        bounds[i] = primitive_bounds(prims_[i]);
-        centroids[i] = bounds[i].centroid();
+    groups_.resize(size_t(group_count_));
+    for (int g = 0; g < group_count_; ++g) groups_[size_t(g)] = build_bvh(std::move(prims[size_t(g)]));
+    group_bounds_.assign(size_t(group_count_), Bounds{});
+    auto &scene_prims = prims.back();
+    for (uint32_t k = 0; k < instances.size(); ++k) {
+        if (groups_[size_t(instances[k].group)].nodes.empty()) continue;  // an empty group
+        scene_prims.push_back({-1, k});
+        group_bounds_[size_t(instances[k].group)].extend(primitive_bounds(scene_prims.back()));
     }
-    nodes_.reserve(2 * prims_.size());
-    build_recursive(bounds, centroids, 0, uint32_t(prims_.size()));
+    top_ = build_bvh(std::move(scene_prims));
+    if (top_.prims.empty()) return;
+    std::vector<Bounds> bounds(top_.prims.size());
+    for (size_t i = 0; i < top_.prims.size(); ++i) bounds[i] = primitive_bounds(top_.prims[i]);
+    auto solid = [&](uint32_t i) {
+        return top_.kind[i] == ShapeGeometry::Kind::Sphere || top_.kind[i] == ShapeGeometry::Kind::Box;
+    };
     // Spheres and boxes whose bounds no other primitive's overlap are empty inside. Their
     // bounds shrink by 1e-9 of their size first, so that a floor touching a sphere's bottom
     // (to rounding) does not count: the sphere's exit is then found first within ray_epsilon.
-    for (uint32_t i = 0; i < prims_.size(); ++i) {
-        if (shapes[prims_[i].shape].kind == ShapeGeometry::Kind::Mesh) continue;
+    for (uint32_t i = 0; i < top_.prims.size(); ++i) {
+        if (!solid(i)) continue;
         const Vec3 margin(1e-9 * max_component(bounds[i].hi - bounds[i].lo));
         Bounds inner;
         inner.lo = bounds[i].lo + margin, inner.hi = bounds[i].hi - margin;
-        if (!overlaps_another(inner, i, bounds)) solid_prim_[size_t(prims_[i].shape)] = i;
+        if (!overlaps_another(inner, i, bounds)) solid_prim_[size_t(top_.prims[i].shape)] = i;
     }
     // The enclosure: the largest sphere or box, if it holds all the rest.
-    for (uint32_t i = 0; i < prims_.size(); ++i) {
-        if (shapes[prims_[i].shape].kind != ShapeGeometry::Kind::Mesh &&
-            (enclosure_ == kNoPrim || bounds[i].surface_area() > bounds[enclosure_].surface_area()))
+    for (uint32_t i = 0; i < top_.prims.size(); ++i) {
+        if (solid(i) && (enclosure_ == kNoPrim || bounds[i].surface_area() > bounds[enclosure_].surface_area()))
             enclosure_ = i;
     }
-    for (uint32_t i = 0; i < prims_.size() && enclosure_ != kNoPrim; ++i) {
-        if (i != enclosure_ && !holds(enclosure_, prims_[i])) enclosure_ = kNoPrim;
-    }
-    vertices_.assign(prims_.size(), {});
-    kind_.assign(prims_.size(), ShapeGeometry::Kind::Mesh);
-    for (size_t i = 0; i < prims_.size(); ++i) {
-        const ShapeGeometry &g = shapes[prims_[i].shape];
-        kind_[i] = g.kind;
-        if (g.kind != ShapeGeometry::Kind::Mesh) continue;
-        const TriangleMesh &m = meshes[g.index];
-        for (int k = 0; k < 3; ++k) vertices_[i][k] = m.positions[m.triangles[prims_[i].index][k]];
+    for (uint32_t i = 0; i < top_.prims.size() && enclosure_ != kNoPrim; ++i) {
+        if (i != enclosure_ && !holds(enclosure_, top_.prims[i])) enclosure_ = kNoPrim;
     }
 }
 
-// Whether the sphere or box `solid` (into prims_) holds all of primitive p: its points
+// Whether the sphere or box `solid` (into top_.prims) holds all of primitive p: its points
 // (a triangle's vertices, a box's corners, a sphere's bounding corners) lie inside, and
 // the solid is convex.
 bool Geometry::holds(uint32_t solid, const Primitive &p) const {
-    const ShapeGeometry &g = shapes[prims_[solid].shape];
+    const ShapeGeometry &g = shapes[top_.prims[solid].shape];
     auto inside = [&](const Vec3 &q) {
         if (g.kind == ShapeGeometry::Kind::Sphere)
             return length(q - spheres[g.index].center) <= spheres[g.index].radius;
         const Vec3 local = boxes[g.index].to_local.point(q);
         return max_component(abs(local)) <= 1;
     };
-    const ShapeGeometry &s = shapes[p.shape];
-    if (s.kind == ShapeGeometry::Kind::Mesh) {
-        const TriangleMesh &m = meshes[s.index];
+    const ShapeGeometry::Kind kind = p.shape < 0 ? ShapeGeometry::Kind::Instance : shapes[p.shape].kind;
+    if (kind == ShapeGeometry::Kind::Mesh) {
+        const TriangleMesh &m = meshes[shapes[p.shape].index];
         for (uint32_t v : m.triangles[p.index])
             if (!inside(m.positions[v])) return false;
         return true;
     }
     const Bounds b = primitive_bounds(p);
     for (int k = 0; k < 8; ++k)
-        if (!inside(s.kind == ShapeGeometry::Kind::Box ? box_corner(boxes[s.index], k) : bounds_corner(b, k)))
+        if (!inside(kind == ShapeGeometry::Kind::Box ? box_corner(boxes[shapes[p.shape].index], k)
+                                                     : bounds_corner(b, k)))
             return false;
     return true;
 }
@@ -171,7 +223,7 @@ bool Geometry::holds(uint32_t solid, const Primitive &p) const {
 // Sufficient, and cheap (no division): the origin is outside the sphere or past one of the
 // box's faces, and the ray moves away from it, as rays leaving the enclosure do.
 bool Geometry::moves_away_from_enclosure(const Ray &ray) const {
-    const ShapeGeometry &g = shapes[prims_[enclosure_].shape];
+    const ShapeGeometry &g = shapes[top_.prims[enclosure_].shape];
     if (g.kind == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[g.index];
         const Vec3 v = ray.o - sp.center;
@@ -199,7 +251,7 @@ bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vec
     };
     std::vector<uint32_t> stack{0};
     while (!stack.empty()) {
-        const Node &node = nodes_[stack.back()];
+        const Node &node = top_.nodes[stack.back()];
         const uint32_t current = stack.back();
         stack.pop_back();
         const Real *b = node.bounds;
@@ -217,6 +269,7 @@ bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vec
 
 Bounds Geometry::shape_bounds(int shape) const {
     const ShapeGeometry &g = shapes[size_t(shape)];
+    if (g.group >= 0) return group_bounds_[size_t(g.group)];  // wherever its instances put it
     if (g.kind == ShapeGeometry::Kind::Mesh) {
         Bounds b;
         for (const Vec3 &p : meshes[size_t(g.index)].positions) b.extend(p);
@@ -253,30 +306,24 @@ bool Geometry::may_touch_surface(int shape, const Bounds &b, Real eps) const {
     return lo.x <= m.hi.x && lo.y <= m.hi.y && lo.z <= m.hi.z && hi.x >= m.lo.x && hi.y >= m.lo.y && hi.z >= m.lo.z;
 }
 
-Bounds Geometry::bounds() const {
-    if (nodes_.empty()) return {};
-    const Real *b = nodes_[0].bounds;
-    Bounds out;
-    out.lo = {b[0], b[1], b[2]}, out.hi = {b[3], b[4], b[5]};
-    return out;
-}
+Bounds Geometry::bounds() const { return top_.bounds(); }
 
 // Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
-uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
+uint32_t Geometry::build_recursive(Bvh &bvh, std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
                                    uint32_t end) {
-    const uint32_t node_index = uint32_t(nodes_.size());
-    nodes_.emplace_back();
+    const uint32_t node_index = uint32_t(bvh.nodes.size());
+    bvh.nodes.emplace_back();
     Bounds node_bounds, centroid_bounds;
     for (uint32_t i = begin; i < end; ++i) {
         node_bounds.extend(bounds[i]);
         centroid_bounds.extend(centroids[i]);
     }
-    Real *nb = nodes_[node_index].bounds;
+    Real *nb = bvh.nodes[node_index].bounds;
     for (int a = 0; a < 3; ++a) nb[a] = node_bounds.lo[a], nb[3 + a] = node_bounds.hi[a];
     const uint32_t count = end - begin;
     auto make_leaf = [&] {
-        nodes_[node_index].first = begin;
-        nodes_[node_index].count = uint16_t(count);
+        bvh.nodes[node_index].first = begin;
+        bvh.nodes[node_index].count = uint16_t(count);
         return node_index;
     };
     if (count <= 2) return make_leaf();
@@ -289,9 +336,9 @@ uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3
         if (count <= 8) return make_leaf();
         // All centroids coincide: split in the middle of the list.
         const uint32_t mid = begin + count / 2;
-        nodes_[node_index].axis = uint8_t(axis);
-        build_recursive(bounds, centroids, begin, mid);
-        nodes_[node_index].first = build_recursive(bounds, centroids, mid, end);
+        bvh.nodes[node_index].axis = uint8_t(axis);
+        build_recursive(bvh, bounds, centroids, begin, mid);
+        bvh.nodes[node_index].first = build_recursive(bvh, bounds, centroids, mid, end);
         return node_index;
     }
 
@@ -334,16 +381,16 @@ uint32_t Geometry::build_recursive(std::vector<Bounds> &bounds, std::vector<Vec3
     uint32_t mid = begin;
     for (uint32_t i = begin; i < end; ++i) {
         if (bin_of(i) <= best) {
-            std::swap(prims_[i], prims_[mid]);
+            std::swap(bvh.prims[i], bvh.prims[mid]);
             std::swap(bounds[i], bounds[mid]);
             std::swap(centroids[i], centroids[mid]);
             ++mid;
         }
     }
     if (mid == begin || mid == end) mid = begin + count / 2;
-    nodes_[node_index].axis = uint8_t(axis);
-    build_recursive(bounds, centroids, begin, mid);
-    nodes_[node_index].first = build_recursive(bounds, centroids, mid, end);
+    bvh.nodes[node_index].axis = uint8_t(axis);
+    build_recursive(bvh, bounds, centroids, begin, mid);
+    bvh.nodes[node_index].first = build_recursive(bvh, bounds, centroids, mid, end);
     return node_index;
 }
 
@@ -384,8 +431,8 @@ struct Geometry::PreparedRay {
 };
 
 bool Geometry::solid_roots(uint32_t i, const Ray &ray, const Vec3 *inv_d, Real &t0, Real &t1) const {
-    const ShapeGeometry &g = shapes[prims_[i].shape];
-    if (kind_[i] == ShapeGeometry::Kind::Sphere) {
+    const ShapeGeometry &g = shapes[top_.prims[i].shape];
+    if (top_.kind[i] == ShapeGeometry::Kind::Sphere) {
         const Sphere &sp = spheres[g.index];
         return sphere_roots(sp.center, sp.radius, ray.o, ray.d, t0, t1);
     }
@@ -399,17 +446,16 @@ bool Geometry::solid_roots(uint32_t i, const Ray &ray, const Vec3 *inv_d, Real &
     return t0 <= t1;
 }
 
-bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const PreparedRay &sr, Real t_max,
+bool Geometry::intersect_primitive(const Bvh &bvh, uint32_t i, const Ray &ray, const PreparedRay &sr, Real t_max,
                                    Hit &hit) const {
-    const size_t i = size_t(&prim - prims_.data());
-    if (kind_[i] != ShapeGeometry::Kind::Mesh) {
+    if (bvh.kind[i] != ShapeGeometry::Kind::Mesh) {  // a sphere or box: only in the scene's BVH
         Real t0, t1;
-        if (!solid_roots(uint32_t(i), ray, &sr.inv_d, t0, t1)) return false;
+        if (!solid_roots(i, ray, &sr.inv_d, t0, t1)) return false;
         const Real t = t0 > ray.t_min ? t0 : t1;
         if (!(t > ray.t_min && t < t_max)) return false;
         hit.t = t;
     } else {
-        const std::array<Vec3, 3> &tri = vertices_[i];
+        const std::array<Vec3, 3> &tri = bvh.vertices[i];
         const Vec3 a = tri[0] - ray.o, b = tri[1] - ray.o, c = tri[2] - ray.o;
         const Real ax = a[sr.kx] - sr.sx * a[sr.kz], ay = a[sr.ky] - sr.sy * a[sr.kz];
         const Real bx = b[sr.kx] - sr.sx * b[sr.kz], by = b[sr.ky] - sr.sy * b[sr.kz];
@@ -423,7 +469,8 @@ bool Geometry::intersect_primitive(const Primitive &prim, const Ray &ray, const 
         hit.t = t;
         hit.b0 = u / det, hit.b1 = v / det, hit.b2 = w / det;
     }
-    hit.prim = uint32_t(i);
+    hit.prim = i;
+    hit.instance = kNoPrim;
     return true;
 }
 
@@ -442,16 +489,21 @@ int box_face_axis(const Vec3 &q) {
 
 }  // namespace
 
+Vec3 Geometry::local_point(const Intersection &its) const {
+    return its.instance < 0 ? its.p : instances[size_t(its.instance)].to_local.point(its.p);
+}
+
 Vec2 Geometry::uv(const Intersection &its) const {
     const ShapeGeometry &s = shapes[size_t(its.shape)];
+    const Vec3 p = local_point(its);
     if (s.kind == ShapeGeometry::Kind::Box) {
-        const Vec3 q = boxes[size_t(s.index)].to_local.point(its.p);
+        const Vec3 q = boxes[size_t(s.index)].to_local.point(p);
         const int a = box_face_axis(q);
         const int *f = kFaceUV[a][q[a] < 0];
         return {(1 + f[1] * q[f[0]]) * 0.5, (1 + f[3] * q[f[2]]) * 0.5};
     }
     if (s.kind == ShapeGeometry::Kind::Sphere) {
-        const Vec3 n = normalize(its.p - spheres[size_t(s.index)].center);
+        const Vec3 n = normalize(p - spheres[size_t(s.index)].center);
         const Real phi = std::atan2(n.y, n.x);
         return {(phi < 0 ? phi + 2 * kPi : phi) / (2 * kPi), std::acos(std::clamp(n.z, Real(-1), Real(1))) / kPi};
     }
@@ -460,7 +512,7 @@ Vec2 Geometry::uv(const Intersection &its) const {
     const TriangleMesh &m = meshes[size_t(s.index)];
     const auto &tri = m.triangles[its.prim];
     const Vec3 &p0 = m.positions[tri[0]], e1 = m.positions[tri[1]] - p0, e2 = m.positions[tri[2]] - p0;
-    const Vec3 d = its.p - p0;
+    const Vec3 d = p - p0;
     const Real d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), det = d11 * d22 - d12 * d12;
     if (!(det > 0)) return m.uvs.empty() ? Vec2{} : m.uvs[tri[0]];
     const Real b1 = (d22 * dot(d, e1) - d12 * dot(d, e2)) / det, b2 = (d11 * dot(d, e2) - d12 * dot(d, e1)) / det;
@@ -503,6 +555,10 @@ void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) cons
                 dpdv = (dp12 * du02 - dp02 * du12) / det;
             }
         }
+        if (its.instance >= 0) {
+            const Transform &m = instances[size_t(its.instance)].to_world;
+            dpdu = m.vector(dpdu), dpdv = m.vector(dpdv);
+        }
     }
     if (!(length_squared(cross(dpdu, dpdv)) > 0)) {
         const Frame frame(its.n);
@@ -511,7 +567,8 @@ void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) cons
 }
 
 void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
-    const Primitive &prim = prims_[hit.prim];
+    const bool instanced = hit.instance != kNoPrim;
+    const Primitive &prim = (instanced ? groups_[size_t(instances[hit.instance].group)] : top_).prims[hit.prim];
     const ShapeGeometry &s = shapes[prim.shape];
     its.t = hit.t;
     if (s.kind == ShapeGeometry::Kind::Box) {
@@ -542,6 +599,23 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
     }
     its.shape = prim.shape;
     its.prim = prim.index;
+    its.instance = instanced ? int(hit.instance) : -1;
+    if (instanced) to_world(its);
+}
+
+void Geometry::to_world(Intersection &its) const {
+    const Instance &inst = instances[size_t(its.instance)];
+    // Normals map by the inverse transpose: rows of to_local.
+    auto normal = [&](const Vec3 &n) {
+        const auto &m = inst.to_local.m;
+        return normalize(Vec3(m[0][0] * n.x + m[1][0] * n.y + m[2][0] * n.z,
+                              m[0][1] * n.x + m[1][1] * n.y + m[2][1] * n.z,
+                              m[0][2] * n.x + m[1][2] * n.y + m[2][2] * n.z));
+    };
+    its.p = inst.to_world.point(its.p);
+    const Vec3 n = normal(its.n), ns = normal(its.ns);
+    its.n = inst.mirrored ? -n : n;
+    its.ns = dot(ns, its.n) >= 0 ? ns : -ns;
 }
 
 bool Geometry::intersect(const Ray &ray, Intersection &its) const {
@@ -552,35 +626,27 @@ bool Geometry::intersect_except(const Ray &ray, int skip, Intersection &its) con
     return traverse(ray, its, [skip](int shape) { return shape != skip; });
 }
 
-template <typename Accept>
-bool Geometry::traverse(const Ray &ray, Intersection &its, Accept &&accept) const {
-    if (nodes_.empty()) return false;
-    const PreparedRay prepared(ray.d);
-    const Vec3 &inv_d = prepared.inv_d;
+template <typename Leaf>
+void Geometry::walk(const Bvh &bvh, const Ray &ray, const Vec3 &inv_d, const Real &t_max, Leaf &&leaf) {
     const bool negative[3] = {inv_d.x < 0, inv_d.y < 0, inv_d.z < 0};
     // Each axis's near and far plane in Node::bounds.
     const int nx = negative[0] ? 3 : 0, ny = negative[1] ? 4 : 1, nz = negative[2] ? 5 : 2;
     const int fx = 3 - nx, fy = 5 - ny, fz = 7 - nz;
-    Hit closest{ray.t_max};
-    bool hit = false;
     uint32_t stack[64];
     int top = 0;
     uint32_t current = 0;
     for (;;) {
-        const Node &node = nodes_[current];
+        const Node &node = bvh.nodes[current];
         const Real *b = node.bounds;
         const Real t_near = std::max(std::max((b[nx] - ray.o.x) * inv_d.x, (b[ny] - ray.o.y) * inv_d.y),
                                      std::max((b[nz] - ray.o.z) * inv_d.z, ray.t_min));
         // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
         const Real t_far = std::min(std::min((b[fx] - ray.o.x) * inv_d.x, (b[fy] - ray.o.y) * inv_d.y),
-                                    std::min((b[fz] - ray.o.z) * inv_d.z, closest.t)) *
+                                    std::min((b[fz] - ray.o.z) * inv_d.z, t_max)) *
                            (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
-                for (uint32_t i = 0; i < node.count; ++i) {
-                    const Primitive &prim = prims_[node.first + i];
-                    if (accept(prim.shape)) hit |= intersect_primitive(prim, ray, prepared, closest.t, closest);
-                }
+                for (uint32_t i = 0; i < node.count; ++i) leaf(node.first + i);
             } else {
                 // Near child first.
                 if (negative[node.axis]) {
@@ -596,6 +662,33 @@ bool Geometry::traverse(const Ray &ray, Intersection &its, Accept &&accept) cons
         if (top == 0) break;
         current = stack[--top];
     }
+}
+
+template <typename Accept>
+bool Geometry::traverse(const Ray &ray, Intersection &its, Accept &&accept) const {
+    if (top_.nodes.empty()) return false;
+    const PreparedRay prepared(ray.d);
+    Hit closest{ray.t_max};
+    bool hit = false;
+    walk(top_, ray, prepared.inv_d, closest.t, [&](uint32_t i) {
+        const Primitive &prim = top_.prims[i];
+        if (top_.kind[i] != ShapeGeometry::Kind::Instance) {
+            if (accept(prim.shape)) hit |= intersect_primitive(top_, i, ray, prepared, closest.t, closest);
+            return;
+        }
+        // The ray in the group's space: the same t, up to a direction no longer unit.
+        const Instance &inst = instances[prim.index];
+        const Bvh &group = groups_[size_t(inst.group)];
+        const Ray local{inst.to_local.point(ray.o), inst.to_local.vector(ray.d), ray.t_min, closest.t};
+        const PreparedRay local_prepared(local.d);
+        walk(group, local, local_prepared.inv_d, closest.t, [&](uint32_t j) {
+            if (accept(group.prims[j].shape) &&
+                intersect_primitive(group, j, local, local_prepared, closest.t, closest)) {
+                closest.instance = prim.index;
+                hit = true;
+            }
+        });
+    });
     if (hit) finish(closest, ray, its);
     return hit;
 }
@@ -615,13 +708,16 @@ size_t bytes(const std::vector<T> &v) {
 }
 
 size_t Geometry::shape_bytes() const {
-    size_t n = bytes(meshes) + bytes(spheres) + bytes(boxes) + bytes(shapes);
+    size_t n = bytes(meshes) + bytes(spheres) + bytes(boxes) + bytes(shapes) + bytes(instances);
     for (const TriangleMesh &m : meshes) n += bytes(m.positions) + bytes(m.normals) + bytes(m.uvs) + bytes(m.triangles);
     return n;
 }
 
 size_t Geometry::bvh_bytes() const {
-    return bytes(prims_) + bytes(vertices_) + bytes(kind_) + bytes(nodes_) + bytes(solid_prim_);
+    auto bvh = [](const Bvh &b) { return bytes(b.prims) + bytes(b.vertices) + bytes(b.kind) + bytes(b.nodes); };
+    size_t n = bvh(top_) + bytes(groups_) + bytes(group_bounds_) + bytes(solid_prim_);
+    for (const Bvh &g : groups_) n += bvh(g);
+    return n;
 }
 
 }  // namespace volpath

@@ -90,15 +90,18 @@ void check_info(const Scene &s, const ShapeInfo &info) {
 }
 }  // namespace
 
-int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided) {
+int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided,
+                          int group) {
     check_info(*this, info);
+    if (group >= 0 && (radiance || info.medium_interface))
+        throw std::invalid_argument("a shape group's shapes can neither emit nor bound a medium");
     for (const auto &t : mesh.triangles)
         for (uint32_t v : t)
             if (v >= mesh.positions.size()) throw std::out_of_range("triangle index out of range");
     if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
         throw std::invalid_argument("need one normal per vertex");
     geometry_built = false;
-    const int id = geometry.add_mesh(std::move(mesh));
+    const int id = geometry.add_mesh(std::move(mesh), group);
     shapes.push_back(info);
     if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0, {}, twosided});
     built = false;
@@ -123,6 +126,11 @@ int Scene::add_shape_box(const Box &b, const ShapeInfo &info) {
     shapes.push_back(info);
     built = false;
     return id;
+}
+
+int Scene::add_instance(int group, const Transform &to_world, const Transform &to_local) {
+    geometry_built = built = false;
+    return geometry.add_instance(group, to_world, to_local);
 }
 
 void Scene::build() {
@@ -258,7 +266,8 @@ std::pair<Real, Real> Scene::local_sun_shadow(const Ray &ray, Real t0, Real t1) 
 std::string Scene::describe() const {
     std::ostringstream s;
     s << geometry.meshes.size() << " meshes, " << geometry.spheres.size() << " spheres, " << geometry.boxes.size()
-      << " boxes, " << media.size() << " media, " << lights.size() << " lights";
+      << " boxes, " << geometry.instances.size() << " instances, " << media.size() << " media, " << lights.size()
+      << " lights";
     return s.str();
 }
 

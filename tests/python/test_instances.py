@@ -1,0 +1,159 @@
+"""Shape groups and instances (Mitsuba's shapegroup and instance): hits through a map with
+rotation, non-uniform scale and mirroring are the flattened copy's; renders agree with it
+within noise; instances share their group's memory; what a group may not hold is refused."""
+
+import re
+
+import numpy as np
+import pytest
+
+import scenes as S
+import volpath
+from volpath import _core
+from volpath.plugins.shapes import transform_normals, transform_points
+from volpath.testing import MIN_BATCHES, max_z, render_batches
+
+
+def rotation(axis, degrees):
+    a = np.radians(degrees)
+    c, s = np.cos(a), np.sin(a)
+    i, j = [k for k in range(3) if k != axis]
+    m = np.eye(4)
+    m[i, i], m[i, j], m[j, i], m[j, j] = c, -s, s, c
+    return m
+
+
+def placed(scale, translate, rotations=()):
+    m = np.diag([*scale, 1.0])
+    for axis, degrees in rotations:
+        m = rotation(axis, degrees) @ m
+    m[:3, 3] = translate
+    return m
+
+
+# A rotated, non-uniformly scaled and moved map, and one that also mirrors.
+STRETCHED = placed([1.0, 2.5, 0.6], [0.4, -0.3, 0.2], [(2, 30), (0, 50)])
+MIRRORED = placed([-1.2, 0.8, 1.0], [-0.5, 0.1, 0.0], [(1, 20)])
+
+
+def bump():
+    """A smooth bumpy patch with normals and texture coordinates (local space)."""
+    u, v = np.meshgrid(np.linspace(-1, 1, 17), np.linspace(-1, 1, 17))
+    z = 0.3 * np.sin(3 * u) * np.cos(2 * v)
+    positions = np.stack([u, v, z], axis=-1).reshape(-1, 3)
+    dz_du, dz_dv = 0.9 * np.cos(3 * u) * np.cos(2 * v), -0.6 * np.sin(3 * u) * np.sin(2 * v)
+    normals = np.stack([-dz_du, -dz_dv, np.ones_like(u)], axis=-1).reshape(-1, 3)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    k = np.arange(17 * 17).reshape(17, 17)[:-1, :-1].ravel()
+    triangles = np.concatenate([np.stack([k, k + 1, k + 18], 1), np.stack([k, k + 18, k + 17], 1)]).astype(np.uint32)
+    uvs = np.stack([(u + 1) / 2, (v + 1) / 2], axis=-1).reshape(-1, 2)
+    return positions, triangles, normals, uvs
+
+
+def mesh(positions, triangles, normals, uvs, bsdf):
+    return {"type": "mesh", "positions": positions, "indices": triangles, "normals": normals, "uvs": uvs, "bsdf": bsdf}
+
+
+def scene_pair(maps, res=24, spp=8):
+    """The same objects as instances of one group, and flattened into world-space meshes."""
+    positions, triangles, normals, uvs = bump()
+    red = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.8, 0.3, 0.2]}}
+    base = {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": 4},
+        "sensor": {
+            "type": "perspective",
+            "fov": 50.0,
+            "to_world": S.lookat([0, -6, 4], [0, 0, 0], [0, 0, 1]),
+            "film": {"type": "hdrfilm", "width": res, "height": res},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}},
+        "floor": {"type": "rectangle", "to_world": placed([6.0, 6.0, 1.0], [0.0, 0.0, -1.5])},
+    }
+    instanced = dict(base, group={"type": "shapegroup", "bump": mesh(positions, triangles, normals, uvs, red)})
+    flat = dict(base)
+    for k, m in enumerate(maps):
+        instanced[f"i{k}"] = {"type": "instance", "group": {"type": "ref", "id": "group"}, "to_world": m}
+        flat[f"m{k}"] = mesh(transform_points(m, positions), triangles, transform_normals(m, normals), uvs, red)
+    return volpath.load_dict(instanced), volpath.load_dict(flat)
+
+
+def random_rays(n, seed):
+    rng = np.random.default_rng(seed)
+    origins = rng.normal(size=(n, 3)) * 0.5 + [0, -6, 3]
+    targets = rng.uniform(-2.5, 2.5, size=(n, 3)) * [1, 1, 0.5]
+    return origins, targets - origins
+
+
+@pytest.mark.parametrize("m", [STRETCHED, MIRRORED], ids=["stretched", "mirrored"])
+def test_hits_are_the_flattened_copys(m):
+    """Distances, normals and texture coordinates through an instance match a world-space
+    copy of the mesh to rounding (1e-9): the map is exact, not an approximation."""
+    instanced, flat = scene_pair([m])
+    o, d = random_rays(4000, 1)
+    t_i, shape_i, n_i = _core.intersect(instanced.native, o, d)
+    t_f, shape_f, n_f = _core.intersect(flat.native, o, d)
+    hit = np.isfinite(t_f)
+    assert hit.sum() > 500 and (shape_f[hit] == 1).sum() > 300  # the bump is hit, not only the floor
+    np.testing.assert_array_equal(np.isfinite(t_i), hit)
+    np.testing.assert_allclose(t_i[hit], t_f[hit], rtol=1e-9)
+    np.testing.assert_allclose(n_i[hit], n_f[hit], atol=1e-9)  # mirrored: faces turn as the copy's
+    uv_i, uv_f = _core.surface_uv(instanced.native, o, d), _core.surface_uv(flat.native, o, d)
+    np.testing.assert_allclose(uv_i[hit], uv_f[hit], atol=1e-9)
+
+
+def test_renders_agree_with_the_flattened_copy():
+    """Three instances (one mirrored) against three world-space copies: 4x4-pixel block
+    means within 4.5 standard errors (of 36 blocks, a false alarm has probability ~2e-4);
+    the paths differ only by rounding, which changes their random choices."""
+    maps = [STRETCHED, MIRRORED, placed([0.5, 0.5, 0.5], [1.5, 1.0, 0.5])]
+    instanced, flat = scene_pair(maps)
+    a = render_batches(volpath.render, instanced, MIN_BATCHES, block=4)
+    b = render_batches(volpath.render, flat, MIN_BATCHES, block=4)
+    assert max_z(*a, *b) < 4.5
+
+
+def test_instanced_render_is_reproducible_across_thread_counts():
+    instanced, _ = scene_pair([STRETCHED, MIRRORED])
+    np.testing.assert_array_equal(
+        volpath.render(instanced, seed=3, threads=1), volpath.render(instanced, seed=3, threads=2)
+    )
+
+
+def test_instances_share_their_groups_memory():
+    """200 instances hold their maps and a top-level BVH; the group's triangles once."""
+    maps = [placed([0.2] * 3, [x, y, 0.0]) for x in np.linspace(-2, 2, 20) for y in np.linspace(-2, 2, 10)]
+    instanced, flat = scene_pair(maps)
+    mi, mf = instanced.memory, flat.memory
+    assert mi["shapes"] + mi["bvh"] < 0.1 * (mf["shapes"] + mf["bvh"])
+    assert "200 instances" in repr(instanced.native)
+
+
+GROUP = '<shape type="shapegroup" id="g">{}</shape>'
+INSTANCE = '<shape type="instance">{}</shape>'
+CUBE = '<shape type="cube"/>'
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        (GROUP.format('<shape type="sphere"/>') + INSTANCE.format('<ref id="g"/>'), "meshes only"),
+        (
+            GROUP.format('<shape type="cube"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>'),
+            "neither emit nor bound a medium",
+        ),
+        (GROUP.format(GROUP.replace('id="g"', 'id="h"').format(CUBE)), "do not nest"),
+        (GROUP.format(CUBE) + INSTANCE.format(""), "exactly one shapegroup"),
+        ('<shape type="cube" id="c"/>' + INSTANCE.format('<ref id="c"/>'), "names a shapegroup"),
+        (
+            GROUP.format(CUBE) + INSTANCE.format('<ref id="g"/><transform name="to_world"><scale z="0"/></transform>'),
+            "singular",
+        ),
+    ],
+    ids=["sphere", "emitter", "nested", "no-group", "not-a-group", "singular"],
+)
+def test_what_a_group_may_not_hold_is_refused_with_its_line(body, message):
+    with pytest.raises(volpath.SceneError, match=message) as e:
+        volpath.load_string(S.scene(S.camera(res=4), body))
+    assert re.match(r"<string>:\d+: ", str(e.value)), "the message names the line"
