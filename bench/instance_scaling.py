@@ -126,7 +126,7 @@ def main():
         "\n## Instancing at scale (issue #37; `bench/instance_scaling.py`)\n\n"
         "A bumpy sphere of 0.1 M triangles alone, and instanced in a field (each turned and scaled) on a "
         "floor; 256x256, path tracing to depth 3, 4 spp; each measurement in a fresh process. Mitsuba 3.9.1 "
-        "scalar_rgb with shapegroup + instance, same run. \"vs alone\": Volpath's time per sample over its "
+        'scalar_rgb with shapegroup + instance, same run. "vs alone": Volpath\'s time per sample over its '
         "time with the mesh alone (target: at most 3x at 100 000 instances, within 2 GB).\n\n"
         "| instances | triangles | Volpath load | Mitsuba load | Volpath per sample | Mitsuba per sample "
         "| vs alone | Volpath peak | Mitsuba peak |\n"

@@ -135,9 +135,10 @@ private:
         uint32_t index;  // the triangle in its mesh, or the instance
     };
     // Bounds as {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z}: a ray picks each axis's near and far
-    // plane by its direction's signs, with no min/max per axis.
+    // plane by its direction's signs, with no min/max per axis. Floats rounded outward: two
+    // nodes to a cache line, and no hit is lost (the tests on primitives stay in double).
     struct Node {
-        Real bounds[6];
+        float bounds[6];
         uint32_t first = 0;  // first primitive (leaf) or second child (inner)
         uint16_t count = 0;  // primitives in a leaf, 0 for an inner node
         uint8_t axis = 0;
@@ -150,7 +151,7 @@ private:
         std::vector<std::array<Vec3, 3>> vertices;
         std::vector<ShapeGeometry::Kind> kind;
         std::vector<Node> nodes;
-        Bounds bounds() const;
+        Bounds bounds;  // of all its primitives, exact
     };
     Bvh top_;
     std::vector<Bvh> groups_;  // per shape group
@@ -168,8 +169,13 @@ private:
     bool overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const;
     // The BVH over `prims` (taken).
     Bvh build_bvh(std::vector<Primitive> prims) const;
-    static uint32_t build_recursive(Bvh &bvh, std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
-                                    uint32_t end);
+    // The subtree over prims [begin, end), its nodes appended to `nodes`; returns its root.
+    static uint32_t build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims,
+                                    std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
+                                    uint32_t end, int spare_threads);
+    static void build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
+                               std::vector<Vec3> &centroids, uint32_t node, uint32_t begin, uint32_t mid, uint32_t end,
+                               int spare_threads);
     struct PreparedRay;  // per-ray set-up of the slab and triangle tests
     // The closest hit so far: its distance, and barycentrics for triangles. The point and
     // normals are worked out once, for the hit that stays (finish).

@@ -1,6 +1,10 @@
 #include "volpath/geometry.h"
 
+#include <cmath>
+#include <future>
+#include <limits>
 #include <stdexcept>
+#include <thread>
 
 namespace volpath {
 
@@ -90,7 +94,7 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
     Bounds b;
     if (p.shape < 0) {  // an instance: its group's bounds' corners, mapped
         const Instance &inst = instances[p.index];
-        const Bounds local = groups_[size_t(inst.group)].bounds();
+        const Bounds local = groups_[size_t(inst.group)].bounds;
         for (int k = 0; k < 8; ++k) b.extend(inst.to_world.point(bounds_corner(local, k)));
         return b;
     }
@@ -108,14 +112,6 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
     return b;
 }
 
-Bounds Geometry::Bvh::bounds() const {
-    Bounds out;
-    if (nodes.empty()) return out;
-    const Real *b = nodes[0].bounds;
-    out.lo = {b[0], b[1], b[2]}, out.hi = {b[3], b[4], b[5]};
-    return out;
-}
-
 Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
     Bvh bvh;
     bvh.prims = std::move(prims);
@@ -126,8 +122,10 @@ Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
         bounds[i] = primitive_bounds(bvh.prims[i]);
         centroids[i] = bounds[i].centroid();
     }
+    for (const Bounds &b : bounds) bvh.bounds.extend(b);
     bvh.nodes.reserve(2 * bvh.prims.size());
-    build_recursive(bvh, bounds, centroids, 0, uint32_t(bvh.prims.size()));
+    const int spare_threads = int(std::thread::hardware_concurrency()) - 1;
+    build_recursive(bvh.nodes, bvh.prims, bounds, centroids, 0, uint32_t(bvh.prims.size()), spare_threads);
     bvh.vertices.assign(bvh.prims.size(), {});
     bvh.kind.assign(bvh.prims.size(), ShapeGeometry::Kind::Instance);
     for (size_t i = 0; i < bvh.prims.size(); ++i) {
@@ -254,7 +252,7 @@ bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vec
         const Node &node = top_.nodes[stack.back()];
         const uint32_t current = stack.back();
         stack.pop_back();
-        const Real *b = node.bounds;
+        const float *b = node.bounds;
         if (!overlap({b[0], b[1], b[2]}, {b[3], b[4], b[5]})) continue;
         if (node.count == 0) {
             stack.push_back(current + 1), stack.push_back(node.first);
@@ -306,24 +304,36 @@ bool Geometry::may_touch_surface(int shape, const Bounds &b, Real eps) const {
     return lo.x <= m.hi.x && lo.y <= m.hi.y && lo.z <= m.hi.z && hi.x >= m.lo.x && hi.y >= m.lo.y && hi.z >= m.lo.z;
 }
 
-Bounds Geometry::bounds() const { return top_.bounds(); }
+Bounds Geometry::bounds() const { return top_.bounds; }
+
+namespace {
+// The float nearest x on the side away from the box's inside.
+float rounded_down(Real x) {
+    const float f = float(x);
+    return Real(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float rounded_up(Real x) {
+    const float f = float(x);
+    return Real(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+}  // namespace
 
 // Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
-uint32_t Geometry::build_recursive(Bvh &bvh, std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
-                                   uint32_t end) {
-    const uint32_t node_index = uint32_t(bvh.nodes.size());
-    bvh.nodes.emplace_back();
+uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
+                                   std::vector<Vec3> &centroids, uint32_t begin, uint32_t end, int spare_threads) {
+    const uint32_t node_index = uint32_t(nodes.size());
+    nodes.emplace_back();
     Bounds node_bounds, centroid_bounds;
     for (uint32_t i = begin; i < end; ++i) {
         node_bounds.extend(bounds[i]);
         centroid_bounds.extend(centroids[i]);
     }
-    Real *nb = bvh.nodes[node_index].bounds;
-    for (int a = 0; a < 3; ++a) nb[a] = node_bounds.lo[a], nb[3 + a] = node_bounds.hi[a];
+    float *nb = nodes[node_index].bounds;
+    for (int a = 0; a < 3; ++a) nb[a] = rounded_down(node_bounds.lo[a]), nb[3 + a] = rounded_up(node_bounds.hi[a]);
     const uint32_t count = end - begin;
     auto make_leaf = [&] {
-        bvh.nodes[node_index].first = begin;
-        bvh.nodes[node_index].count = uint16_t(count);
+        nodes[node_index].first = begin;
+        nodes[node_index].count = uint16_t(count);
         return node_index;
     };
     if (count <= 2) return make_leaf();
@@ -336,9 +346,8 @@ uint32_t Geometry::build_recursive(Bvh &bvh, std::vector<Bounds> &bounds, std::v
         if (count <= 8) return make_leaf();
         // All centroids coincide: split in the middle of the list.
         const uint32_t mid = begin + count / 2;
-        bvh.nodes[node_index].axis = uint8_t(axis);
-        build_recursive(bvh, bounds, centroids, begin, mid);
-        bvh.nodes[node_index].first = build_recursive(bvh, bounds, centroids, mid, end);
+        nodes[node_index].axis = uint8_t(axis);
+        build_children(nodes, prims, bounds, centroids, node_index, begin, mid, end, spare_threads);
         return node_index;
     }
 
@@ -381,17 +390,42 @@ uint32_t Geometry::build_recursive(Bvh &bvh, std::vector<Bounds> &bounds, std::v
     uint32_t mid = begin;
     for (uint32_t i = begin; i < end; ++i) {
         if (bin_of(i) <= best) {
-            std::swap(bvh.prims[i], bvh.prims[mid]);
+            std::swap(prims[i], prims[mid]);
             std::swap(bounds[i], bounds[mid]);
             std::swap(centroids[i], centroids[mid]);
             ++mid;
         }
     }
     if (mid == begin || mid == end) mid = begin + count / 2;
-    bvh.nodes[node_index].axis = uint8_t(axis);
-    build_recursive(bvh, bounds, centroids, begin, mid);
-    bvh.nodes[node_index].first = build_recursive(bvh, bounds, centroids, mid, end);
+    nodes[node_index].axis = uint8_t(axis);
+    build_children(nodes, prims, bounds, centroids, node_index, begin, mid, end, spare_threads);
     return node_index;
+}
+
+// The right subtree is built on a thread of its own (while threads are spare and the range
+// is large) into nodes of its own, appended after the left subtree's: where a serial build
+// puts them, so the tree is the same whatever the thread count.
+void Geometry::build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
+                              std::vector<Vec3> &centroids, uint32_t node, uint32_t begin, uint32_t mid, uint32_t end,
+                              int spare_threads) {
+    constexpr uint32_t kParallelBuild = 1u << 15;
+    if (spare_threads <= 0 || end - begin < kParallelBuild) {
+        build_recursive(nodes, prims, bounds, centroids, begin, mid, 0);
+        nodes[node].first = build_recursive(nodes, prims, bounds, centroids, mid, end, 0);
+        return;
+    }
+    const int right_threads = (spare_threads - 1) / 2;
+    std::vector<Node> right;
+    right.reserve(2 * size_t(end - mid));
+    auto right_built = std::async(std::launch::async,
+                                  [&] { build_recursive(right, prims, bounds, centroids, mid, end, right_threads); });
+    build_recursive(nodes, prims, bounds, centroids, begin, mid, spare_threads - 1 - right_threads);
+    right_built.get();
+    const uint32_t offset = uint32_t(nodes.size());
+    for (Node &n : right)
+        if (n.count == 0) n.first += offset;  // an inner node's second child
+    nodes[node].first = offset;
+    nodes.insert(nodes.end(), right.begin(), right.end());
 }
 
 namespace {
@@ -568,7 +602,8 @@ void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) cons
 
 void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
     const bool instanced = hit.instance != kNoPrim;
-    const Primitive &prim = (instanced ? groups_[size_t(instances[hit.instance].group)] : top_).prims[hit.prim];
+    const Bvh &bvh = instanced ? groups_[size_t(instances[hit.instance].group)] : top_;
+    const Primitive &prim = bvh.prims[hit.prim];
     const ShapeGeometry &s = shapes[prim.shape];
     its.t = hit.t;
     if (s.kind == ShapeGeometry::Kind::Box) {
@@ -585,13 +620,15 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
         its.n = its.ns = sp.flip_normals ? -n : n;
     } else {
-        const TriangleMesh &m = meshes[s.index];
-        const auto &tri = m.triangles[prim.index];
-        const Vec3 &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
-        its.p = p0 * hit.b0 + p1 * hit.b1 + p2 * hit.b2;
-        its.n = normalize(cross(p1 - p0, p2 - p0));
+        // The vertices the intersection test just read (in cache), not the mesh's through its
+        // index chain: the same values.
+        const std::array<Vec3, 3> &v = bvh.vertices[hit.prim];
+        its.p = v[0] * hit.b0 + v[1] * hit.b1 + v[2] * hit.b2;
+        its.n = normalize(cross(v[1] - v[0], v[2] - v[0]));
         its.ns = its.n;
+        const TriangleMesh &m = meshes[s.index];
         if (!m.normals.empty()) {
+            const auto &tri = m.triangles[prim.index];
             const Vec3 ns = m.normals[tri[0]] * hit.b0 + m.normals[tri[1]] * hit.b1 + m.normals[tri[2]] * hit.b2;
             const Real len = length(ns);
             if (len > 0) its.ns = dot(ns, its.n) >= 0 ? ns / len : -ns / len;
@@ -637,7 +674,7 @@ void Geometry::walk(const Bvh &bvh, const Ray &ray, const Vec3 &inv_d, const Rea
     uint32_t current = 0;
     for (;;) {
         const Node &node = bvh.nodes[current];
-        const Real *b = node.bounds;
+        const float *b = node.bounds;
         const Real t_near = std::max(std::max((b[nx] - ray.o.x) * inv_d.x, (b[ny] - ray.o.y) * inv_d.y),
                                      std::max((b[nz] - ray.o.z) * inv_d.z, ray.t_min));
         // The far bound is widened by a few ulps so that rays grazing a flat box still enter it.
