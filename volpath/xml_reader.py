@@ -93,6 +93,7 @@ class _Reader:
         self.used = set()
         self.old = False  # a 0.x scene: camelCase names, grid bounding boxes honoured
         self.include_depth = 0
+        self.next_key = {}  # (id of an object's dict, base) -> the suffix unique_key tries first
         self.max_include_depth = max_include_depth
         self.auto = 0
 
@@ -290,10 +291,14 @@ class _Reader:
                 self.fail(file, child, f"unknown element <{child.tag}>")
 
     def unique_key(self, d, base):
-        key, i = base, 0
+        """base, base_1, base_2, ...: the first not in d, counting on from the last one given
+        (a scene of 100 000 unnamed instances would otherwise probe quadratically)."""
+        i = self.next_key.get((id(d), base), 0)
+        key = f"{base}_{i}" if i else base
         while key in d:
             i += 1
             key = f"{base}_{i}"
+        self.next_key[id(d), base] = i + 1
         return key
 
     def put(self, file, node, d, key, value):

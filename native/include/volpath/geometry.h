@@ -171,11 +171,9 @@ private:
     Bvh build_bvh(std::vector<Primitive> prims) const;
     // The subtree over prims [begin, end), its nodes appended to `nodes`; returns its root.
     static uint32_t build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims,
-                                    std::vector<Bounds> &bounds, std::vector<Vec3> &centroids, uint32_t begin,
-                                    uint32_t end, int spare_threads);
+                                    std::vector<Bounds> &bounds, uint32_t begin, uint32_t end, int spare_threads);
     static void build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
-                               std::vector<Vec3> &centroids, uint32_t node, uint32_t begin, uint32_t mid, uint32_t end,
-                               int spare_threads);
+                               uint32_t node, uint32_t begin, uint32_t mid, uint32_t end, int spare_threads);
     struct PreparedRay;  // per-ray set-up of the slab and triangle tests
     // The closest hit so far: its distance, and barycentrics for triangles. The point and
     // normals are worked out once, for the hit that stays (finish).

@@ -116,16 +116,13 @@ Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
     Bvh bvh;
     bvh.prims = std::move(prims);
     if (bvh.prims.empty()) return bvh;
-    std::vector<Bounds> bounds(bvh.prims.size());
-    std::vector<Vec3> centroids(bvh.prims.size());
-    for (size_t i = 0; i < bvh.prims.size(); ++i) {
-        bounds[i] = primitive_bounds(bvh.prims[i]);
-        centroids[i] = bounds[i].centroid();
+    {  // (the primitives' bounds are freed before their vertices are copied: a lower peak)
+        std::vector<Bounds> bounds(bvh.prims.size());
+        for (size_t i = 0; i < bvh.prims.size(); ++i) bvh.bounds.extend(bounds[i] = primitive_bounds(bvh.prims[i]));
+        bvh.nodes.reserve(2 * bvh.prims.size());
+        const int spare_threads = int(std::thread::hardware_concurrency()) - 1;
+        build_recursive(bvh.nodes, bvh.prims, bounds, 0, uint32_t(bvh.prims.size()), spare_threads);
     }
-    for (const Bounds &b : bounds) bvh.bounds.extend(b);
-    bvh.nodes.reserve(2 * bvh.prims.size());
-    const int spare_threads = int(std::thread::hardware_concurrency()) - 1;
-    build_recursive(bvh.nodes, bvh.prims, bounds, centroids, 0, uint32_t(bvh.prims.size()), spare_threads);
     bvh.vertices.assign(bvh.prims.size(), {});
     bvh.kind.assign(bvh.prims.size(), ShapeGeometry::Kind::Instance);
     for (size_t i = 0; i < bvh.prims.size(); ++i) {
@@ -320,13 +317,13 @@ float rounded_up(Real x) {
 
 // Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
 uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
-                                   std::vector<Vec3> &centroids, uint32_t begin, uint32_t end, int spare_threads) {
+                                   uint32_t begin, uint32_t end, int spare_threads) {
     const uint32_t node_index = uint32_t(nodes.size());
     nodes.emplace_back();
     Bounds node_bounds, centroid_bounds;
     for (uint32_t i = begin; i < end; ++i) {
         node_bounds.extend(bounds[i]);
-        centroid_bounds.extend(centroids[i]);
+        centroid_bounds.extend(bounds[i].centroid());
     }
     float *nb = nodes[node_index].bounds;
     for (int a = 0; a < 3; ++a) nb[a] = rounded_down(node_bounds.lo[a]), nb[3 + a] = rounded_up(node_bounds.hi[a]);
@@ -347,7 +344,7 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
         // All centroids coincide: split in the middle of the list.
         const uint32_t mid = begin + count / 2;
         nodes[node_index].axis = uint8_t(axis);
-        build_children(nodes, prims, bounds, centroids, node_index, begin, mid, end, spare_threads);
+        build_children(nodes, prims, bounds, node_index, begin, mid, end, spare_threads);
         return node_index;
     }
 
@@ -357,7 +354,7 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
         uint32_t n = 0;
     } bins[kBins];
     const Real lo = centroid_bounds.lo[axis], scale = kBins / extent[axis];
-    auto bin_of = [&](uint32_t i) { return std::min(kBins - 1, int((centroids[i][axis] - lo) * scale)); };
+    auto bin_of = [&](uint32_t i) { return std::min(kBins - 1, int((bounds[i].centroid()[axis] - lo) * scale)); };
     for (uint32_t i = begin; i < end; ++i) {
         Bin &bin = bins[bin_of(i)];
         bin.b.extend(bounds[i]);
@@ -392,13 +389,12 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
         if (bin_of(i) <= best) {
             std::swap(prims[i], prims[mid]);
             std::swap(bounds[i], bounds[mid]);
-            std::swap(centroids[i], centroids[mid]);
             ++mid;
         }
     }
     if (mid == begin || mid == end) mid = begin + count / 2;
     nodes[node_index].axis = uint8_t(axis);
-    build_children(nodes, prims, bounds, centroids, node_index, begin, mid, end, spare_threads);
+    build_children(nodes, prims, bounds, node_index, begin, mid, end, spare_threads);
     return node_index;
 }
 
@@ -406,20 +402,19 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
 // is large) into nodes of its own, appended after the left subtree's: where a serial build
 // puts them, so the tree is the same whatever the thread count.
 void Geometry::build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
-                              std::vector<Vec3> &centroids, uint32_t node, uint32_t begin, uint32_t mid, uint32_t end,
-                              int spare_threads) {
+                              uint32_t node, uint32_t begin, uint32_t mid, uint32_t end, int spare_threads) {
     constexpr uint32_t kParallelBuild = 1u << 15;
     if (spare_threads <= 0 || end - begin < kParallelBuild) {
-        build_recursive(nodes, prims, bounds, centroids, begin, mid, 0);
-        nodes[node].first = build_recursive(nodes, prims, bounds, centroids, mid, end, 0);
+        build_recursive(nodes, prims, bounds, begin, mid, 0);
+        nodes[node].first = build_recursive(nodes, prims, bounds, mid, end, 0);
         return;
     }
     const int right_threads = (spare_threads - 1) / 2;
     std::vector<Node> right;
     right.reserve(2 * size_t(end - mid));
-    auto right_built = std::async(std::launch::async,
-                                  [&] { build_recursive(right, prims, bounds, centroids, mid, end, right_threads); });
-    build_recursive(nodes, prims, bounds, centroids, begin, mid, spare_threads - 1 - right_threads);
+    auto right_built =
+        std::async(std::launch::async, [&] { build_recursive(right, prims, bounds, mid, end, right_threads); });
+    build_recursive(nodes, prims, bounds, begin, mid, spare_threads - 1 - right_threads);
     right_built.get();
     const uint32_t offset = uint32_t(nodes.size());
     for (Node &n : right)
