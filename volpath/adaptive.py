@@ -134,14 +134,20 @@ def _even(n, down=False):
     return n - n % 2 if down else n + n % 2
 
 
-def render_adaptive(native, args, target, max_spp, exposure, progress, status, out, sobol, features=None):
+def render_adaptive(passes, args, target, max_spp, exposure, progress, status, out, sobol, features=None, film=None):
     """Rounds of native renders until the image's error is ``target`` or every block is at
     ``max_spp``; returns (image, stats, samples per pixel): the image and stats as
     _core.render gives them, with the achieved error and the spp taken. ``features`` (the
-    denoiser's passes) are summed over all rounds."""
+    denoiser's passes) are summed over all rounds. ``passes``: the native scenes; more than
+    one in spectral mode, where each round renders the same pixels' samples in every pass
+    (pass k's sample indices from k * max_spp on, disjoint) and ``film`` (spectral.Film)
+    integrates their half-buffers into linear sRGB; the counts are then per pass, the
+    stats' spp over all passes, as fixed-spp spectral renders count them."""
     _, seed, threads, *tracer_args = args  # the spp each pixel takes is the rounds' counts
-    height, width = native.height, native.width
+    height, width = passes[0].height, passes[0].width
     state = Adaptive(height, width, target, max_spp, exposure)
+    n_passes = len(passes)
+    halves = [state.halves] if film is None else [np.zeros_like(state.halves) for _ in passes]
     stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
     start, rounds = time.perf_counter(), 0
     counts, later = state.next_counts()
@@ -158,24 +164,41 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
                     {
                         "error": state.error,
                         "target": state.target,
-                        "spp": done / counts.size,
+                        "spp": n_passes * done / counts.size,
                         "seconds": time.perf_counter() - start,
                         "seconds_left": left,
                     }
                 )
             return None if progress is None else progress(done / total)
 
-        _, s = _core.render(
-            native, 2, seed, threads, *tracer_args, report, None, sobol, 0, state.taken, counts, state.halves, features
-        )
+        for k, native in enumerate(passes):
+            _, s = _core.render(
+                native,
+                2,
+                seed,
+                threads,
+                *tracer_args,
+                report if n_passes == 1 else (lambda f, k=k: report((k + f) / n_passes)),
+                None,
+                sobol,
+                k * state.max_spp,
+                state.taken,
+                counts,
+                halves[k],
+                features if k == 0 else None,
+            )
+            stats["seconds"] += s["seconds"]
+            for key in ("nonfinite_samples", "negative_samples"):
+                stats[key] += s[key]
+            stats["clamped_share"] += s["clamped_share"] * round_samples / n_passes
+            if s["cancelled"]:
+                break
         rounds += 1
         state.taken += counts
-        stats["seconds"] += s["seconds"]
-        for key in ("nonfinite_samples", "negative_samples"):
-            stats[key] += s[key]
-        stats["clamped_share"] += s["clamped_share"] * round_samples
+        if film is not None:
+            state.halves[...] = sum(h @ m.T for h, m in zip(halves, film.to_rgb)) / film.balance
         if out is not None:
-            out[...] = state.image()
+            out[...] = _clipped(state.image(), film)
         if s["cancelled"]:
             stats["cancelled"] = True
             break
@@ -189,16 +212,21 @@ def render_adaptive(native, args, target, max_spp, exposure, progress, status, o
         error=state.error,
         target_error=state.target,
         rounds=rounds,
-        spp_mean=float(spp.mean()),
-        spp_min=int(spp.min()),
-        spp_max=int(spp.max()),
-        spp_cap=state.max_spp,
+        spp_mean=n_passes * float(spp.mean()),
+        spp_min=n_passes * int(spp.min()),
+        spp_max=n_passes * int(spp.max()),
+        spp_cap=n_passes * state.max_spp,
     )
-    image = state.image()
+    image = _clipped(state.image(), film)
     if out is not None:
         out[...] = image
         image = out
     return image, stats, spp
+
+
+def _clipped(image, film):
+    """A spectral film's colours outside the sRGB gamut clipped to 0, as Film.image does."""
+    return image if film is None else np.maximum(image, 0.0)
 
 
 def describe(status):

@@ -119,10 +119,18 @@ def render(
     features = np.zeros((scene.height, scene.width, 8)) if denoise or aovs else None
     samples = per_pass
     if target_error is not None:
-        if scene.passes:
-            raise ValueError("target_error is not available in spectral mode yet: give spp instead")
         image, stats, samples = render_adaptive(
-            scene.native, args, target_error, spp, exposure, progress, status, out, sampler == "sobol", features
+            scene.passes or [scene.native],
+            args,
+            target_error,
+            per_pass,
+            exposure,
+            progress,
+            status,
+            out,
+            sampler == "sobol",
+            features,
+            Film(len(scene.passes)) if scene.passes else None,
         )
         spp = stats["spp_max"]
     elif scene.passes:
