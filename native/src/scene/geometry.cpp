@@ -333,7 +333,14 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
         nodes[node_index].count = uint16_t(count);
         return node_index;
     };
-    if (count <= 2) return make_leaf();
+    // An instance costs a traversal of its own: it takes a leaf alone (checked only where a
+    // leaf is possible, at most four primitives).
+    auto holds_instance = [&] {
+        for (uint32_t i = begin; i < end; ++i)
+            if (prims[i].shape < 0) return true;
+        return false;
+    };
+    if (count == 1 || (count <= 2 && !holds_instance())) return make_leaf();
 
     const Vec3 extent = centroid_bounds.hi - centroid_bounds.lo;
     int axis = 0;
@@ -381,7 +388,7 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
     // Relative cost of a leaf: intersecting `count` primitives versus traversing.
     const Real leaf_cost = count * node_bounds.surface_area();
     const Real split_cost = 0.125 * node_bounds.surface_area() + cost[best];
-    if (count <= 4 && leaf_cost <= split_cost) return make_leaf();
+    if (count <= 4 && leaf_cost <= split_cost && !holds_instance()) return make_leaf();
 
     // Partition in place.
     uint32_t mid = begin;
