@@ -1,9 +1,11 @@
 """Instancing at scale (issue #37): one bumpy sphere of 100 k triangles alone, and 1 000 and
 100 000 instances of it (a field, each turned and scaled) on a floor, 256x256 pixels, Volpath
-beside Mitsuba 3 (scalar_rgb, shapegroup + instance), one run. Each measurement runs in a
-fresh process: "load" is load_file to a built scene, "per sample" a 4-spp render's time over
-its samples, "peak" the process's peak resident memory less what it held after importing the
-renderer. Both renderers use all the machine's cores for the render.
+beside Mitsuba 3 (scalar_rgb, shapegroup + instance) and Cycles 5.0 (the bpy module: the
+field as geometry-node instances on points), one run. Each measurement runs in a fresh
+process: "load" is load_file to a built scene (Cycles: building the Blender scene and a 1-spp
+render, which builds its BVH), "per sample" a 4-spp render's time over its samples (Cycles:
+the 4-spp render less the 1-spp one, over 3), "peak" the process's peak resident memory less
+what it held after importing the renderer. All use all the machine's cores for the render.
 
     .venv/bin/python bench/instance_scaling.py [--counts 1000 100000] [--append bench/RESULTS.md]
 """
@@ -36,28 +38,102 @@ HEAD = """<scene version="3.0.0">
   </shape>
 """
 
-# Run in a child: argv = renderer, scene path. Prints RESULT {"load", "render", "peak"}.
+# Run in a child: argv = renderer, scene path. Prints RESULT {"load", "per_sample", "peak"}.
 CHILD = r"""
 import json, resource, sys, time
 renderer, path = sys.argv[1:]
+SPP = 4
 if renderer == "volpath":
     import volpath
-    load, render = volpath.load_file, volpath.render
+    load, render = volpath.load_file, lambda scene: volpath.render(scene, spp=SPP)
+elif renderer == "cycles":
+    sys.path.insert(0, "bench")
+    import bpy
+    from instance_scaling import cycles_scene
+    load = cycles_scene
+    def render(scene, spp=SPP):
+        scene.cycles.samples = spp
+        bpy.ops.render.render()
 else:
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
-    load, render = mi.load_file, mi.render
+    load, render = mi.load_file, lambda scene: mi.render(scene, spp=SPP)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 start = time.perf_counter()
 scene = load(path)
 if renderer == "volpath":
     scene.native.build()
+if renderer == "cycles":  # Cycles builds its BVH in a render: a 1-spp render counts as loading
+    built = time.perf_counter()
+    render(scene, 1)
 loaded = time.perf_counter()
 render(scene)
 done = time.perf_counter()
+if renderer == "cycles":  # each render synchronises the scene again: the samples past the first
+    per_sample = ((done - loaded) - (loaded - built)) / (SPP - 1)
+else:
+    per_sample = (done - loaded) / SPP
 peak = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) * 1024
-print("RESULT", json.dumps({"load": loaded - start, "render": done - loaded, "peak": peak}))
+print("RESULT", json.dumps({"load": loaded - start, "per_sample": per_sample, "peak": peak}))
 """
+
+
+def cycles_scene(path):
+    """The field of `path` (its maps in the .npy beside it) in Blender, Z-up: the mesh, and
+    geometry-node instances of it on points carrying each one's turn and scale."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine, scene.cycles.device = "CYCLES", "CPU"
+    scene.cycles.use_adaptive_sampling = scene.cycles.use_denoising = False
+    scene.cycles.max_bounces = 2  # path depth 3
+    scene.render.resolution_x = scene.render.resolution_y = 256
+    world = bpy.data.worlds.new("sky")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
+    scene.world = world
+    directory = os.path.dirname(path)
+    bpy.ops.wm.ply_import(filepath=os.path.join(directory, "mesh.ply"))
+    sphere = bpy.context.selected_objects[0]
+    maps = np.load(path[:-4] + ".npy")
+    k = int(np.ceil(np.sqrt(len(maps)))) if len(maps) else 0
+    h, d, floor = (0.8 * k, 0.9 * k, k) if k else (1.5, 3.5, 4)
+    bpy.ops.mesh.primitive_plane_add(size=2 * floor, location=(0, 0, -1))
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (0, -d, h)  # the scene's (x, y, z) is Blender's (x, -z, y)
+    camera.rotation_euler = (-camera.location).to_track_quat("-Z", "Y").to_euler()
+    camera.data.sensor_fit, camera.data.angle = "HORIZONTAL", np.radians(40)
+    scene.camera = camera
+    if len(maps):
+        for c in list(sphere.users_collection):
+            c.objects.unlink(sphere)  # seen through its instances only
+        scale = np.linalg.norm(maps[:, :3, 0], axis=1)
+        points = bpy.data.meshes.new("points")
+        points.vertices.add(len(maps))
+        points.vertices.foreach_set("co", np.stack([maps[:, 0, 3], -maps[:, 2, 3], maps[:, 1, 3]], 1).ravel())
+        turn = np.zeros((len(maps), 3))
+        turn[:, 2] = np.arctan2(maps[:, 0, 2], maps[:, 0, 0])  # about the scene's y: Blender's z
+        points.attributes.new("turn", "FLOAT_VECTOR", "POINT").data.foreach_set("vector", turn.ravel())
+        points.attributes.new("size", "FLOAT", "POINT").data.foreach_set("value", scale)
+        field = bpy.data.objects.new("field", points)
+        scene.collection.objects.link(field)
+        tree = bpy.data.node_groups.new("field", "GeometryNodeTree")
+        tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        on_points, info = tree.nodes.new("GeometryNodeInstanceOnPoints"), tree.nodes.new("GeometryNodeObjectInfo")
+        info.inputs["Object"].default_value = sphere
+        turn_in, size_in = (tree.nodes.new("GeometryNodeInputNamedAttribute") for _ in range(2))
+        turn_in.data_type, turn_in.inputs["Name"].default_value = "FLOAT_VECTOR", "turn"
+        size_in.data_type, size_in.inputs["Name"].default_value = "FLOAT", "size"
+        tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], on_points.inputs["Points"])
+        tree.links.new(info.outputs["Geometry"], on_points.inputs["Instance"])
+        tree.links.new(turn_in.outputs["Attribute"], on_points.inputs["Rotation"])
+        tree.links.new(size_in.outputs["Attribute"], on_points.inputs["Scale"])
+        tree.links.new(on_points.outputs["Instances"], tree.nodes.new("NodeGroupOutput").inputs[0])
+        field.modifiers.new("field", "NODES").node_group = tree
+    return scene
 
 
 def field(count, rng):
@@ -96,6 +172,7 @@ def write_scene(path, count):
         head = HEAD.format(h=0.8 * k, d=0.9 * k, spp=SPP, floor=k)
     with open(path, "w", encoding="utf-8") as f:
         f.write(head + body + "</scene>\n")
+    np.save(path[:-4] + ".npy", field(count, np.random.default_rng(1))[1] if count else np.zeros((0, 4, 4)))
 
 
 def main():
@@ -113,24 +190,29 @@ def main():
         for count in [0, *args.counts]:
             scene = os.path.join(d, f"field{count}.xml")
             write_scene(scene, count)
-            v, m = (measure(r, scene, CHILD) for r in ("volpath", "mitsuba"))
-            v_sample, m_sample = v["render"] / SPP, m["render"] / SPP
-            single = single or v_sample
+            v, m, c = (measure(r, scene, CHILD) for r in ("volpath", "mitsuba", "cycles"))
+            single = single or v["per_sample"]
             rows.append(
                 f"| {count or 'the mesh alone'} | {count * len(triangles) or len(triangles):.3g} | "
-                f"{v['load']:.2f} s | {m['load']:.2f} s | {v_sample:.3f} s | {m_sample:.3f} s | "
-                f"**{v_sample / single:.2f}x** | {v['peak'] / 2**20:.0f} MB | {m['peak'] / 2**20:.0f} MB |"
+                + " | ".join(f"{r['load']:.2f} s" for r in (v, m, c))
+                + " | "
+                + " | ".join(f"{r['per_sample']:.3f} s" for r in (v, m, c))
+                + f" | **{v['per_sample'] / single:.2f}x** | "
+                + " | ".join(f"{r['peak'] / 2**20:.0f} MB" for r in (v, m, c))
+                + " |"
             )
             print(rows[-1], flush=True)
     section = (
         "\n## Instancing at scale (issue #37; `bench/instance_scaling.py`)\n\n"
         "A bumpy sphere of 0.1 M triangles alone, and instanced in a field (each turned and scaled) on a "
-        "floor; 256x256, path tracing to depth 3, 4 spp; each measurement in a fresh process. Mitsuba 3.9.1 "
-        'scalar_rgb with shapegroup + instance, same run. "vs alone": Volpath\'s time per sample over its '
-        "time with the mesh alone (target: at most 3x at 100 000 instances, within 2 GB).\n\n"
-        "| instances | triangles | Volpath load | Mitsuba load | Volpath per sample | Mitsuba per sample "
-        "| vs alone | Volpath peak | Mitsuba peak |\n"
-        "|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+        "floor; 256x256, path tracing to depth 3, 4 spp; each measurement in a fresh process, same run. Mitsuba "
+        "3.9.1 scalar_rgb with shapegroup + instance; Cycles 5.0 with geometry-node instances on points (its "
+        "load includes a 1-spp render, which builds its BVH; its time a sample is the 4-spp render's less the "
+        "1-spp one's). \"vs alone\": Volpath's time a sample over its time with the mesh alone (target: at most "
+        "3x at 100 000 instances, within 2 GB).\n\n"
+        "| instances | triangles | Volpath load | Mitsuba load | Cycles load | Volpath a sample | Mitsuba a sample "
+        "| Cycles a sample | vs alone | Volpath peak | Mitsuba peak | Cycles peak |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
     )
     publish(section, args.append)
 

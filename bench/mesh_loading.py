@@ -80,7 +80,7 @@ def bumpy_sphere(triangles):
     i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
     a, b = i * (n + 1) + j, i * (n + 1) + j + 1
     c, d = a + n + 1, b + n + 1
-    tris = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3), np.stack([b, c, d], -1).reshape(-1, 3)])
+    tris = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([b, d, c], -1).reshape(-1, 3)])  # outward
     return p.reshape(-1, 3), tris
 
 
