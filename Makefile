@@ -130,7 +130,8 @@ sanitize: setup
 	  -Ccmake.define.VOLPATH_SANITIZE=ON .
 	cd tests && LD_PRELOAD="$$(g++ -print-file-name=libasan.so) $$(g++ -print-file-name=libubsan.so)" \
 	  ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-	  FUZZ_EXAMPLES=200 ../$(SAN_VENV)/bin/pytest -q -p no:cacheprovider native stability
+	  FUZZ_EXAMPLES=200 ../$(SAN_VENV)/bin/pytest -q -p no:cacheprovider native stability \
+	  python/test_meshes.py python/test_instances.py
 
 clean:
 	rm -rf build out dist wheels $(VENV) $(SAN_VENV)

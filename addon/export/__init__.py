@@ -148,7 +148,9 @@ def _place_meshes(d):
         elif counts[v.key] > 1:
             if v.key not in groups:
                 groups[v.key] = _unique(f"{v.key[0][0]}.group", d.keys() | out.keys())
-                out[groups[v.key]] = {"type": "shapegroup", **dict(v.parts)}
+                group = out[groups[v.key]] = {"type": "shapegroup"}
+                for name, shape in v.parts:  # (two slots may hold one material)
+                    group[_unique(name, group)] = shape
             out[k] = {"type": "instance", "group": {"type": "ref", "id": groups[v.key]}, "to_world": v.to_world}
         else:
             for name, shape in v.parts:

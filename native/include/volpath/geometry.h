@@ -93,7 +93,6 @@ public:
     int add_sphere(const Sphere &sphere);
     int add_box(const Box &box);
     int add_group() { return group_count_++; }
-    int group_count() const { return group_count_; }
     int add_instance(int group, const Transform &to_world, const Transform &to_local);
     void build();  // must be called after the last add
     bool intersect(const Ray &ray, Intersection &its) const;
@@ -118,7 +117,7 @@ public:
     int enclosure() const { return enclosure_ == kNoPrim ? -1 : top_.prims[enclosure_].shape; }
     bool outside_enclosure(const Ray &ray) const { return enclosure_ != kNoPrim && moves_away_from_enclosure(ray); }
     Bounds bounds() const;
-    // In the world: a shape group's shape's are the bounds of all the group's instances.
+    // In the world; for a shape in a shape group, the bounds of all the group's instances.
     Bounds shape_bounds(int shape) const;
     // Whether the box `b`, grown by `eps`, may reach the surface of the shape (a sphere's or
     // box's surface exactly; a mesh's wherever its bounds overlap `b`).
