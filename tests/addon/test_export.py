@@ -96,6 +96,30 @@ def test_linked_duplicates_are_instances_and_modifiers_apply(blank, tmp_path):
     assert volpath.load_file(write_directory(ex, tmp_path / "scene")).summary["instances"] == 2
 
 
+def test_instances_reach_the_pipeline_and_the_viewport(blank, tmp_path):
+    """Linked duplicates stay instances in export_animation's directory, which a pipeline
+    worker renders (volpath.frames.render_frame), and in the viewport's exports, whose mesh
+    cache hands the second export the same arrays."""
+    from blender_scenes import tiny_animation
+
+    from volpath.frames import render_frame
+
+    tiny_animation(frames=2)
+    for obj in bpy.context.scene.objects:
+        obj.select_set(obj.name == "Cube")
+    bpy.context.view_layer.objects.active = bpy.data.objects["Cube"]
+    bpy.ops.object.duplicate_move_linked(TRANSFORM_OT_translate={"value": (3, 0, 0)})
+    export_animation(bpy.context.scene, [1, 2], tmp_path / "anim")
+    xml = (tmp_path / "anim" / "scene.xml").read_text()
+    assert xml.count('type="shapegroup"') == 1 and xml.count('type="instance"') == 2
+    image, _ = render_frame(str(tmp_path / "anim"), 2, 4)
+    assert np.all(np.isfinite(image)) and image.mean() > 0
+    cache = {}
+    first, second = (export_scene(depsgraph(), cache).scene for _ in range(2))
+    members = [[v for v in d["Cube.group"].values() if isinstance(v, dict)] for d in (first, second)]
+    assert members[0][0]["positions"] is members[1][0]["positions"]
+
+
 def scatter_nodes():
     """A geometry-nodes tree that puts a cylinder on each of a 4 x 4 grid's points."""
     tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
