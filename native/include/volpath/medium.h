@@ -262,7 +262,8 @@ Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max);
 // The optical depth to the next collision is carried across pieces (the exponential
 // distribution is memoryless, so this equals resampling at each piece).
 // The first distance takes the sampler's next dimension if `stratified`, every later one
-// an independent number (Sampler::independent_1d: their count varies).
+// an independent number (Sampler::independent_1d: their count varies); `first_u` >= 0
+// is the first uniform itself, drawn by the caller (a stratum of the usual draw).
 // `tau_min` non-null: residual tracking, for transmittance estimates (Novak et al. 2014,
 // "Residual ratio tracking"). Each piece's minorant is taken out of the medium and its
 // optical depth added to *tau_min, as each piece is entered: the caller applies
@@ -272,7 +273,8 @@ Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max);
 // optical depth is the minorant's.
 template <typename Callback>
 Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int channel, Sampler &rng, Callback &&callback,
-                      Real forced_probability = 0, bool stratified = true, Spectrum *tau_min = nullptr) {
+                      Real forced_probability = 0, bool stratified = true, Spectrum *tau_min = nullptr,
+                      Real first_u = -1) {
     MajorantIterator pieces(medium, ray, t_max);
     MajorantSegment seg;
     // The majorant optical depth accumulates across pieces until the next tentative
@@ -283,7 +285,8 @@ Spectrum sample_T_maj(const Medium &medium, const Ray &ray, Real t_max, int chan
     // for the sampler's uniforms, multiples of 2^-32 (a forced probability scales them:
     // then it is off by 2^-53 at most, far below what any distance here resolves).
     Spectrum tau_maj(0.0);
-    Real u = (stratified ? rng.next_1d() : rng.independent_1d()) * (forced_probability > 0 ? forced_probability : 1.0);
+    Real u = first_u >= 0 ? first_u : stratified ? rng.next_1d() : rng.independent_1d();
+    if (forced_probability > 0) u *= forced_probability;
     Real tau = -std::log(1 - u);
     while (pieces.next(seg)) {
         if (tau_min) {

@@ -295,7 +295,7 @@ namespace {
 // one of the two at random and spend the pixel's samples on whichever the draw favoured: a
 // bank of fog half transparent to the camera is then noise between what lies behind it and
 // the light it scatters. Grids are split wherever the camera ray meets them, with
-// kCollideBranches forced collisions, their segments' only NEE. Homogeneous media and the
+// kCollideBranches forced collisions in strata, their segments' only NEE. Homogeneous media and the
 // air only where the camera stands in them, with one: a homogeneous segment draws
 // distances for its lights whether or not free flight collides (segment_direct), and a
 // segment of air farther on is cut at the shapes' sun shadows (fly_through_air), its
@@ -348,6 +348,9 @@ struct Path {
     // branches do not: one split per segment and sample).
     int segment = 0, split_at = -1;
     bool may_split = true;
+    // A forced branch's index among its segment's: the stratum of the collision
+    // probability that its forced collision is drawn in.
+    int stratum = 0, strata = 1;
 
     Path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config)
         : scene(scene), config(config), feat(features_of(config)), sampler(sampler), ray(ray), medium(medium),
@@ -438,6 +441,7 @@ Spectrum Path::split(bool hit, const Intersection &its) {
     Spectrum collided(0.0);
     for (int k = 0; k < branches; ++k) {
         Path path = collide;
+        path.stratum = k, path.strata = branches;
         path.gathered = gathered + through + collided / Real(branches);
         sampler = at_split.split(uint64_t(segment * kCollideBranches + k));
         collided += path.trace(&first);
@@ -811,7 +815,7 @@ Step Path::fly_through_medium(Real t_end) {
                 scale_r_l(T_seg * sigma_maj / pdf);
                 return !is_black(beta);
             },
-            forced);
+            forced, true, nullptr, forced > 0 ? (stratum + sampler.next_1d()) / strata : -1);
         if (terminated) return Step::Ended;
         if (scattered) return Step::NewRay;
         // No collision before t_end. Homogeneous media are crossed by shadow rays in
