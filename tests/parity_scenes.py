@@ -53,6 +53,13 @@ def area_lights(scene):
     _light("AREA", 80, location=(2, 0, 2), shape="DISK", size=0.8)
 
 
+def area_light_spread(scene):
+    """Spread: a square light narrowed to 60 degrees, a tilted disk to 100, over the floor."""
+    _floor(), _view(scene)
+    _light("AREA", 150, location=(-1.5, 0, 2), shape="SQUARE", size=0.8, spread=math.radians(60))
+    _light("AREA", 150, location=(1.5, 0, 2), rotation=(0.4, 0, 0), shape="DISK", size=0.8, spread=math.radians(100))
+
+
 def emission_shader(scene):
     _floor(), _view(scene)
     bpy.ops.mesh.primitive_plane_add(size=1.5, location=(0, 0.5, 1.5), rotation=(math.pi, 0, 0))
@@ -170,6 +177,7 @@ SCENES = {
     "point light": point_light,
     "sun with an angle": sun_with_angle,
     "area lights": area_lights,
+    "area light spread": area_light_spread,
     "emission shader": emission_shader,
     "glass and metal": glass_and_metal,
     "textured principled": textured_principled,

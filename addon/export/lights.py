@@ -38,10 +38,16 @@ def export(obj, matrix_world, report):
     light = obj.data
     color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
-    hidden = [k for k in hidden_from(obj).split(", ") if k not in ("", "camera", "shadow")]
-    if hidden:
-        # A light hidden from diffuse rays lights no diffuse surface in Cycles (its NEE too).
-        report.warn(f"light '{name}': ray visibility off for {', '.join(hidden)} is not supported (visible to all)")
+    off = hidden_from(obj).split(", ")
+    unsupported = [k for k in off if k in ("diffuse", "glossy", "transmission")]
+    if unsupported:
+        # A light hidden from diffuse rays lights no diffuse surface in Cycles (its NEE too):
+        # that needs the BSDFs' lobes apart, which Volpath's NEE does not have.
+        kinds = ", ".join(unsupported)
+        report.warn(f"light '{name}': ray visibility off for {kinds} is not supported (visible to all)")
+    # Volume Scatter off: it lights no medium; Shadow off: it casts no shadow.
+    hidden = {"hidden_from": ", ".join(k for k in off if k in ("scatter", "shadow"))}
+    hidden = hidden if hidden["hidden_from"] else {}
     if light.type == "POINT":
         if light.shadow_soft_size > 0:
             report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")
@@ -49,6 +55,7 @@ def export(obj, matrix_world, report):
             "type": "point",
             "position": convert.matrix(matrix_world)[:3, 3],
             "intensity": convert.rgb(color / (4 * math.pi)),
+            **hidden,
         }
     if light.type == "SUN":
         return {
@@ -56,16 +63,15 @@ def export(obj, matrix_world, report):
             "direction": sun_direction(obj),
             "angular_radius": max(light.angle / 2, 1e-4),
             "irradiance": convert.rgb(color),
+            **hidden,
         }
     if light.type == "AREA":
-        if light.spread < math.pi - 1e-6:
-            report.warn(f"light '{name}': a spread of {math.degrees(light.spread):.0f} degrees is not supported (180)")
-        return _area(light, matrix_world, color, report, name, obj.visible_camera)
+        return _area(light, matrix_world, color, report, name, obj.visible_camera, hidden)
     report.warn(f"light '{name}': {light.type.lower()} lights are not supported (skipped)")
     return None
 
 
-def _area(light, matrix_world, power, report, name, camera_visible):
+def _area(light, matrix_world, power, report, name, camera_visible, hidden):
     sx = light.size
     sy = light.size_y if light.shape in ("RECTANGLE", "ELLIPSE") else light.size
     if light.shape in ("SQUARE", "RECTANGLE"):
@@ -97,6 +103,25 @@ def _area(light, matrix_world, power, report, name, camera_visible):
         "indices": indices,
         "to_world": to_world,
         "bsdf": {"type": "null"},
-        "emitter": {"type": "area", "radiance": convert.rgb(power / (math.pi * area))},
+        "emitter": {
+            "type": "area",
+            "radiance": convert.rgb(power / (math.pi * area)),
+            **_spread(light, report, name),
+            **hidden,
+        },
         **({} if camera_visible else {"hidden_from": "camera"}),
     }
+
+
+# The narrowest spread rendered: a spread of 0 is a beam that only the camera could see.
+MIN_SPREAD = 0.5
+
+
+def _spread(light, report, name):
+    """The emitter's `spread` in degrees, where it is below 180 (Blender's Spread)."""
+    degrees = math.degrees(light.spread)
+    if degrees >= 180 - 1e-4:
+        return {}
+    if degrees < MIN_SPREAD:
+        report.note(f"light '{name}': a spread of {degrees:g} degrees is rendered as {MIN_SPREAD} degrees")
+    return {"spread": max(degrees, MIN_SPREAD)}

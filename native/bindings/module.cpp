@@ -71,8 +71,8 @@ PlacedGrid placed(const GridPtr &g, const std::optional<DoubleArray> &world_to_g
 }
 
 // A new light, or (replace >= 0) that light replaced: an animation's next frame.
-int add_or_replace(Scene &s, const Light &l, int replace) {
-    if (replace < 0) return s.add_light(l);
+int add_or_replace(Scene &s, const Light &l, int replace, int hidden_from) {
+    if (replace < 0) return s.add_light(l, uint8_t(hidden_from));
     s.set_light(replace, l);
     return replace;
 }
@@ -443,7 +443,7 @@ PYBIND11_MODULE(_core, m) {
                const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
                std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided,
-               int group) {
+               double emitter_spread, int emitter_hidden_from, int group) {
                 TriangleMesh mesh;
                 mesh.positions = points(positions, "positions");
                 if (normals) mesh.normals = points(*normals, "normals");
@@ -458,15 +458,16 @@ PYBIND11_MODULE(_core, m) {
                 mesh.triangles.resize(size_t(triangles.shape(0)));
                 for (size_t i = 0; i < mesh.triangles.size(); ++i)
                     mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
-                Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
+                const AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
+                                            uint8_t(emitter_hidden_from)};
                 return s.add_shape_mesh(std::move(mesh),
                                         shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
-                                        radiance ? &Le : nullptr, emitter_twosided, group);
+                                        radiance ? &emission : nullptr, group);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
             py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false,
-            py::arg("group") = -1)
+            py::arg("emitter_spread") = kPi, py::arg("emitter_hidden_from") = 0, py::arg("group") = -1)
         .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
         .def(
             "add_instance",
@@ -477,15 +478,18 @@ PYBIND11_MODULE(_core, m) {
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
-               bool medium_interface, std::optional<Array3> radiance, int hidden_from, bool emitter_twosided) {
-                Spectrum Le = radiance ? vec(*radiance) : Spectrum(0.0);
+               bool medium_interface, std::optional<Array3> radiance, int hidden_from, bool emitter_twosided,
+               double emitter_spread, int emitter_hidden_from) {
+                const AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
+                                            uint8_t(emitter_hidden_from)};
                 return s.add_shape_sphere(Sphere{vec(center), radius, flip},
                                           shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
-                                          radiance ? &Le : nullptr, emitter_twosided);
+                                          radiance ? &emission : nullptr);
             },
             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
-            py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false)
+            py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false, py::arg("emitter_spread") = kPi,
+            py::arg("emitter_hidden_from") = 0)
         .def(
             "add_box",
             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
@@ -533,20 +537,23 @@ PYBIND11_MODULE(_core, m) {
             py::arg("free_flight") = "guided", py::arg("sky_map") = true)
         .def(
             "add_sun",
-            [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance, int replace) {
-                return add_or_replace(s, sun_light(vec(to_sun), angular_radius, vec(irradiance)), replace);
+            [](Scene &s, Array3 to_sun, double angular_radius, Array3 irradiance, int replace, int hidden_from) {
+                return add_or_replace(s, sun_light(vec(to_sun), angular_radius, vec(irradiance)), replace, hidden_from);
             },
-            py::arg("to_sun"), py::arg("angular_radius"), py::arg("irradiance"), py::arg("replace") = -1)
-        .def("add_point_light",
-             [](Scene &s, Array3 p, Array3 intensity) {
-                 return s.add_light(PointLight{vec(p), vec(intensity)});
-             })
+            py::arg("to_sun"), py::arg("angular_radius"), py::arg("irradiance"), py::arg("replace") = -1,
+            py::arg("hidden_from") = 0)
+        .def(
+            "add_point_light",
+            [](Scene &s, Array3 p, Array3 intensity, int hidden_from) {
+                return s.add_light(PointLight{vec(p), vec(intensity)}, uint8_t(hidden_from));
+            },
+            py::arg("position"), py::arg("intensity"), py::arg("hidden_from") = 0)
         .def(
             "add_directional_light",
-            [](Scene &s, Array3 d, Array3 irradiance, int replace) {
-                return add_or_replace(s, DirectionalLight{normalize(vec(d)), vec(irradiance)}, replace);
+            [](Scene &s, Array3 d, Array3 irradiance, int replace, int hidden_from) {
+                return add_or_replace(s, DirectionalLight{normalize(vec(d)), vec(irradiance)}, replace, hidden_from);
             },
-            py::arg("direction"), py::arg("irradiance"), py::arg("replace") = -1)
+            py::arg("direction"), py::arg("irradiance"), py::arg("replace") = -1, py::arg("hidden_from") = 0)
         .def(
             "add_environment",
             [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,

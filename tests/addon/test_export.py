@@ -366,15 +366,40 @@ def test_area_lights_are_not_geometry(blank, visible_camera):
     assert up == pytest.approx(0.2 + (radiance if visible_camera else 0), rel=1e-3)
 
 
-def test_ray_visibility_is_followed_for_meshes_and_camera_for_lights(blank):
+def test_an_area_lights_spread_is_exported_in_degrees(blank):
+    """Blender's Spread becomes the emitter's `spread` (none at 180 degrees); a spread of 0,
+    a beam no path could reach, is rendered at the narrowest, with a note. How it renders
+    beside Cycles: the "area light spread" parity scene."""
+    add_camera(blank)
+    bpy.ops.object.light_add(type="AREA")
+    light = bpy.context.object.data
+
+    def exported():
+        result = export_scene(depsgraph())
+        return result.scene["Area"]["emitter"].get("spread"), result.notes
+
+    assert exported() == (None, [])
+    light.spread = math.radians(60)
+    assert exported()[0] == pytest.approx(60, rel=1e-5)
+    light.spread = 0
+    spread, notes = exported()
+    assert spread == 0.5 and any("spread of 0 degrees is rendered as 0.5" in n for n in notes), notes
+
+
+def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(blank):
     add_camera(blank)
     bpy.ops.mesh.primitive_cube_add()
     cube = bpy.context.object
     cube.visible_camera = cube.visible_shadow = cube.visible_diffuse = False
     bpy.ops.object.light_add(type="AREA")
     bpy.context.object.visible_glossy = False
+    bpy.ops.object.light_add(type="POINT")
+    bpy.context.object.visible_volume_scatter = bpy.context.object.visible_shadow = False
     exported = export_scene(depsgraph())
     assert exported.scene["Cube"]["hidden_from"] == "camera, diffuse, shadow"
+    assert exported.scene["Point"]["hidden_from"] == "scatter, shadow"
+    assert "hidden_from" not in exported.scene["Area"]["emitter"]
     warnings = exported.warnings
-    assert not any("'Cube'" in w for w in warnings), warnings
+    assert not any("'Cube'" in w or "'Point'" in w for w in warnings), warnings
     assert any("light 'Area': ray visibility off for glossy is not supported" in w for w in warnings), warnings
+    volpath.load_dict(exported.scene)  # the loader takes a light's scatter and shadow visibility

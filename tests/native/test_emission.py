@@ -13,7 +13,7 @@ import pytest
 import scenes as S
 import volpath
 from volpath.grids import write_vol
-from volpath.testing import render_batches
+from volpath.testing import max_z, render_batches
 
 LE = np.array([2.0, 1.0, 0.5])
 SIGMA_A = np.array([0.5, 0.3, 0.2])
@@ -162,6 +162,60 @@ def test_a_twosided_area_emitter_lights_both_faces(twosided):
     assert (a.mean() > 0.05) == twosided  # the floor below sees the back face only when it emits
 
 
+def _spread_light(spread, size=0.005, extra=""):
+    """A downward-facing square light at the origin (hidden from the camera), radiance 1000."""
+    value = "" if spread is None else f'<float name="spread" value="{spread}"/>'
+    return f"""<shape type="rectangle">{extra}
+        <transform name="to_world"><scale value="{size}"/><rotate x="1" angle="90"/></transform>
+        <emitter type="area"><rgb name="radiance" value="1000"/>{value}</emitter></shape>"""
+
+
+def test_a_spread_narrows_an_area_light_and_keeps_its_power():
+    """Blender's Spread (90 degrees): seen from the light, a floor 1 m below is lit in the
+    ratio w(theta) = (tan h - tan theta) / (tan h - h), h = 45 degrees, to the same light
+    without one, where theta is the angle of the pixel's ray from the normal: a camera at
+    the light looks along it. The rendered ratio follows w within 3 % away from the cut-off
+    (a pixel averages w over its footprint), and its integral with cos theta over the
+    solid angle, the light's power relative to a full spread, is 1 within 3 % (the pixel
+    grid's quadrature). A tiny light: NEE is nearly exact. Then a wider one with a 60-degree
+    spread over the floor, lit by NEE with MIS and by BSDF sampling alone: they agree on 4x4
+    blocks (z < 5, as in tests/native/test_tracer_agreement.py), so the light's sampling and
+    the path's hits weigh the spread alike."""
+    res, fov = 64, 100.0
+    camera = S.camera(res=res, fov=fov, origin="0, 0.001, 0", target="0, -1, 0", up="0, 0, 1")
+    hidden = '<string name="hidden_from" value="camera"/>'
+
+    def floor_lit(spread):
+        scene = volpath.load_string(S.scene(camera, S.floor(y=-1, size=20), _spread_light(spread, extra=hidden)))
+        return volpath.render(scene, spp=16, tracer="nee_mis")[..., 0]
+
+    ratio = floor_lit(90) / floor_lit(None)
+    ndc = (2 * (np.arange(res) + 0.5) / res - 1) * np.tan(np.radians(fov / 2))
+    tan_theta = np.hypot(*np.meshgrid(ndc, ndc))
+    h = np.pi / 4
+    w = np.clip(np.tan(h) - tan_theta, 0, None) / (np.tan(h) - h)
+    pixel = 2 * np.tan(np.radians(fov / 2)) / res
+    away = np.abs(tan_theta - np.tan(h)) > 2 * pixel
+    np.testing.assert_allclose(ratio[away], w[away], rtol=0.03, atol=1e-3)
+    cos = 1 / np.sqrt(1 + tan_theta**2)
+    power = np.sum(ratio * cos * cos**3 * pixel**2)  # d(omega) = cos^3 dA on the image plane at 1
+    assert abs(power / np.pi - 1) < 0.03, power / np.pi
+
+    wide = S.scene(
+        S.camera(res=16, origin="0, 2, 2", target="0, -1, 0", fov=60, spp=32), S.floor(y=-1), _spread_light(60, 0.5)
+    )
+    scene = volpath.load_string(wide)
+    a = render_batches(volpath.render, scene, 6, block=4, tracer="nee_mis")
+    b = render_batches(volpath.render, scene, 6, block=4, tracer="multiple")
+    assert max_z(a[0], a[1], b[0], b[1]) < 5  # hits that miss the falloff: z = 14
+
+
+@pytest.mark.parametrize("spread", [0, -5, 181])
+def test_a_spread_out_of_range_is_an_error(spread):
+    with pytest.raises(volpath.SceneError, match=r":\d+: .*'spread' must be in \(0, 180\]"):
+        volpath.load_string(S.scene(S.camera(), _spread_light(spread)))
+
+
 def test_a_shape_that_casts_no_shadow_lets_shadow_rays_through():
     """A black box between a point light and the floor, hidden from shadow rays: the floor
     under it is as bright as with no box (NEE toward a point light is the only strategy,
@@ -198,3 +252,53 @@ def test_a_mirror_shows_what_glossy_rays_may_see(hidden, expected):
     img = volpath.render(volpath.load_string(S.scene(camera, mirror, box, sky)), spp=4, seed=1)
     red, blue = img[..., 0].mean(), img[..., 2].mean()
     assert (red > 0.9 and blue < 0.1) if expected == "box" else (blue > 0.9 and red < 0.1), (red, blue)
+
+
+def _lights(hidden, size=0.4):
+    """A point light and an area light facing down (out of the camera's sight), both hidden
+    from the `hidden` rays."""
+    tag = f'<string name="hidden_from" value="{hidden}"/>' if hidden else ""
+    point = f'<emitter type="point"><point name="position" value="1, 3, 0"/><rgb name="intensity" value="8"/>{tag}</emitter>'
+    area = f"""<shape type="rectangle"><string name="hidden_from" value="camera"/>
+        <transform name="to_world"><scale value="{size}"/><rotate x="1" angle="90"/><translate x="-1" y="2"/></transform>
+        <bsdf type="null"/><emitter type="area"><rgb name="radiance" value="10"/>{tag}</emitter></shape>"""
+    return point + area
+
+
+def test_lights_hidden_from_scatter_rays_light_no_medium():
+    """Blender's Volume Scatter visibility off on both lights: a scattering cube in the dark
+    between them is black to the last bit (NEE from the medium skips them, and scattered
+    rays that meet the area light do not count it), while a floor without the medium is lit
+    exactly as when they are visible (surfaces' NEE and BSDF rays are not scattered rays).
+    Without NEE (`multiple`), scattered rays meeting the area light are all there is."""
+    camera = S.camera(res=8, origin="0, 0.5, 5", target="0, 0.5, 0", fov=40)
+    medium = S.homogeneous("m", "2, 2, 2", "0.9, 0.9, 0.9", g=0.3) + S.medium_cube("m", 0.8)
+    for tracer in ("multiple", "nee_mis", "null_scattering"):
+        lit = volpath.render(volpath.load_string(S.scene(camera, medium, _lights(""))), spp=8, tracer=tracer)
+        dark = volpath.render(volpath.load_string(S.scene(camera, medium, _lights("scatter"))), spp=8, tracer=tracer)
+        assert lit.mean() > 0.01 and not dark.any(), (tracer, lit.mean(), dark.max())
+    floor = [camera, S.floor(y=-1)]
+    np.testing.assert_array_equal(
+        volpath.render(volpath.load_string(S.scene(*floor, _lights("scatter"))), spp=8, seed=2),
+        volpath.render(volpath.load_string(S.scene(*floor, _lights(""))), spp=8, seed=2),
+    )
+
+
+def test_lights_that_cast_no_shadow_light_through_an_occluder():
+    """Shadow visibility off on both lights: under a black board (hidden from the camera)
+    the floor is lit as if the board were not there. With the area light NEE is then the
+    only strategy, unweighted, where the open scene combines it with BSDF sampling: the two
+    images agree within noise (z < 5 on 4x4 blocks, as tests/native/test_tracer_agreement.py
+    argues), and the board's shadow is there when the lights cast one."""
+    camera = S.camera(res=16, origin="0, 1, 5", target="0, -1, 0", fov=40)
+    board = """<shape type="rectangle"><string name="hidden_from" value="camera"/>
+        <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate y="0.5"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf></shape>"""
+
+    def batches(*parts):
+        return render_batches(volpath.render, volpath.load_string(S.scene(camera, S.floor(y=-1), *parts)), 6, block=4)
+
+    open_, through = batches(_lights("", 1.5)), batches(_lights("shadow", 1.5), board)
+    shadowed = batches(_lights("", 1.5), board)
+    assert max_z(open_[0], open_[1], through[0], through[1]) < 5  # hits counted on top of NEE: z = 11
+    assert shadowed[0].mean() < 0.95 * open_[0].mean()

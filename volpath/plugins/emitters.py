@@ -6,6 +6,7 @@ import math
 import numpy as np
 
 from .params import spectral_colour
+from .shapes import light_hidden_from
 
 
 def build(b, d, key=None):
@@ -22,7 +23,7 @@ def build(b, d, key=None):
         else:
             pos = p.transform()[:3, 3]
         intensity = p.rgb("intensity", 1.0, emitted=True)
-        n.add_point_light(tuple(pos), tuple(intensity))
+        n.add_point_light(tuple(pos), tuple(intensity), light_hidden_from(p))
         info.update(position=pos.tolist(), intensity=intensity.tolist())
     elif p.type == "directional":
         if p.has("direction"):
@@ -32,7 +33,7 @@ def build(b, d, key=None):
         if np.linalg.norm(direction) == 0:
             raise p.error("'direction' must not be zero")
         irradiance = p.rgb("irradiance", 1.0, emitted=True)
-        index = n.add_directional_light(tuple(direction), tuple(irradiance), replace)
+        index = n.add_directional_light(tuple(direction), tuple(irradiance), replace, light_hidden_from(p))
         info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
     elif p.type == "constant":
         radiance = p.rgb("radiance", 1.0, emitted=True)
@@ -71,7 +72,7 @@ def build(b, d, key=None):
         if radius >= 0.5:
             raise p.error("'angular_radius' must be below 0.5 rad")
         irradiance = p.rgb("irradiance", 1.0, emitted=True)
-        index = n.add_sun(tuple(to_sun), radius, tuple(irradiance), replace)
+        index = n.add_sun(tuple(to_sun), radius, tuple(irradiance), replace, light_hidden_from(p))
         info.update(to_sun=to_sun.tolist(), angular_radius=radius, irradiance=irradiance.tolist())
     elif p.type == "area":
         raise p.error("an area emitter must be nested inside a shape")

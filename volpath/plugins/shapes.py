@@ -2,6 +2,8 @@
 numpy arrays in a dictionary), with their BSDF, area emitter and medium interface; shape
 groups of meshes and their instances (Mitsuba's shapegroup and instance)."""
 
+import math
+
 import numpy as np
 
 from ..meshes import Mesh, load_mesh
@@ -17,7 +19,7 @@ def build(b, d, group=-1):
     p = b.params(d, "shape")
     to_world = p.transform()
     bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
-    emitter_twosided = False
+    emitter_twosided, emitter_spread, emitter_hidden_from = False, math.pi, 0
     for key, v in d.items():
         if not isinstance(v, dict) or key == "to_world":
             continue
@@ -34,6 +36,12 @@ def build(b, d, group=-1):
                 raise ep.error("only 'area' emitters can be attached to shapes")
             radiance = ep.rgb("radiance", 1.0, emitted=True)
             emitter_twosided = ep.bool("twosided", False)  # Volpath's: both faces emit (Blender's)
+            # Volpath's: Blender's Spread, the full angle in degrees around the normal.
+            spread = ep.float("spread", 180.0)
+            if not 0 < spread <= 180:
+                raise ep.error(f"'spread' must be in (0, 180] degrees, got {spread:g}")
+            emitter_spread = math.radians(spread)
+            emitter_hidden_from = light_hidden_from(ep)
             ep.check()
         elif kind == "medium":
             if key not in ("interior", "exterior"):
@@ -60,6 +68,8 @@ def build(b, d, group=-1):
         radiance=None if radiance is None else tuple(radiance),
         hidden_from=_hidden_from(p),
         emitter_twosided=emitter_twosided,
+        emitter_spread=emitter_spread,
+        emitter_hidden_from=emitter_hidden_from,
     )
     flip = p.bool("flip_normals", False)
     if p.type == "sphere":
@@ -87,7 +97,7 @@ def build(b, d, group=-1):
     elif p.type == "cube" and radiance is None and group < 0 and np.linalg.cond(to_world[:3, :3]) < 1e12:
         # An analytic box (one primitive); emitting or flattened cubes stay meshes.
         # Under a mirroring map the mesh's faces turn inward; the box's do too.
-        box_info = {k: v for k, v in common.items() if k not in ("radiance", "emitter_twosided")}
+        box_info = {k: v for k, v in common.items() if not k.startswith("emitter_") and k != "radiance"}
         mirrored = np.linalg.det(to_world[:3, :3]) < 0
         b.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
         corners = transform_points(to_world, cube()[0])
@@ -214,14 +224,21 @@ def transform_normals(m, n):
 RAY_KINDS = {"camera": 1, "diffuse": 2, "glossy": 4, "transmission": 8, "scatter": 16, "shadow": 32}
 
 
-def _hidden_from(p):
+def _hidden_from(p, kinds=RAY_KINDS):
     """Volpath's `hidden_from`: the kinds of rays that pass through the shape (Blender's ray
     visibility; Mitsuba has none), comma-separated."""
     names = [n.strip() for n in p.str("hidden_from", "").split(",") if n.strip()]
-    unknown = [n for n in names if n not in RAY_KINDS]
+    unknown = [n for n in names if n not in kinds]
     if unknown:
-        raise p.error(f"unknown ray kind(s) {', '.join(unknown)} in 'hidden_from' (expected: {', '.join(RAY_KINDS)})")
+        raise p.error(f"unknown ray kind(s) {', '.join(unknown)} in 'hidden_from' (expected: {', '.join(kinds)})")
     return sum({RAY_KINDS[n] for n in names})
+
+
+def light_hidden_from(p):
+    """An emitter's `hidden_from` (Blender's ray visibility of lights): `scatter`, it lights
+    no medium; `shadow`, it casts no shadow (Scene::light_hidden_from in
+    native/include/volpath/scene.h)."""
+    return _hidden_from(p, ("scatter", "shadow"))
 
 
 def rectangle():

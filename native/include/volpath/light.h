@@ -31,7 +31,30 @@ struct AreaLight {
     Vec3 center;  // area-weighted centroid: where distances drawn for the light aim
     // Emits from both faces (Blender's emission shaders); else from the front (Mitsuba's).
     bool twosided = false;
+    // Blender's Spread: the light leaves within spread / 2 of the normal (spread_falloff);
+    // kPi: in every direction alike. prepare_light derives the other two.
+    Real spread = kPi, tan_half_spread = kInfinity, spread_normalization = 1;
 };
+
+// What a shape emits: an area light's radiance, its faces, its spread and its visibility.
+struct AreaEmission {
+    Spectrum radiance;
+    bool twosided = false;
+    Real spread = kPi;
+    uint8_t hidden_from = 0;  // Scene::light_hidden_from
+};
+
+// The factor on an area light's radiance toward a direction at cos_theta to its normal
+// (> 0 on the emitting side). A spread below pi is a grid of slats in front of the
+// emitter, as on a soft box: along the normal it hides nothing, and at an angle theta the
+// part it lets through falls as tan h - tan theta, to nothing at h, half the spread. The
+// power stays the same: over the cone, the integral of (tan h - tan theta) cos theta is
+// pi (tan h - h), which spread_normalization divides out.
+inline Real spread_falloff(const AreaLight &l, Real cos_theta) {
+    if (l.spread >= kPi) return 1;
+    const Real tan_theta = safe_sqrt(1 - cos_theta * cos_theta) / cos_theta;
+    return std::max(l.tan_half_spread - tan_theta, Real(0)) * l.spread_normalization;
+}
 
 // Radiance arriving from infinity: a constant, or a latitude-longitude map (Mitsuba's
 // convention: y up, u = atan2(x, -z) / 2 pi, v = acos(y) / pi) times `scale`.

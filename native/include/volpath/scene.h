@@ -50,6 +50,15 @@ struct Scene {
     std::vector<Texture> textures;
     std::vector<Medium> media;
     std::vector<Light> lights;
+    // Per light, the kinds of rays it is hidden from (RayKind bits, Blender's ray
+    // visibility of lights): Scatter, it lights no medium (neither NEE from a scattering
+    // vertex nor a scattered ray that meets it count it); Shadow, it casts no shadow (NEE
+    // toward it ignores what lies between, and only camera rays count it where they meet
+    // it: NEE alone lights the scene, unweighted).
+    std::vector<uint8_t> light_hidden_from;
+    bool light_hides_from(int light, RayKind kind) const {
+        return (light_hidden_from[size_t(light)] & uint8_t(kind)) != 0;
+    }
     std::vector<int> infinite_lights;  // indices into lights
     // All but environment lights: NEE also from distances drawn for them on homogeneous
     // media segments (see SegmentVertex in the integrator). Indices into lights.
@@ -68,18 +77,18 @@ struct Scene {
     int add_texture(Texture t);
     // Makes one of the BSDF's parameters vary as `param` says (its texture added before).
     void bind_texture(int bsdf, const TexturedParam &param);
-    // `radiance`: an area light on the shape (emitting from both faces if `twosided`).
+    // `emission`: an area light on the shape, or none.
     // `group`: the shape group it belongs to (see add_group), or -1.
-    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false,
+    int add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const AreaEmission *emission = nullptr,
                        int group = -1);
-    int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance, bool twosided = false);
+    int add_shape_sphere(const Sphere &s, const ShapeInfo &info, const AreaEmission *emission = nullptr);
     int add_shape_box(const Box &b, const ShapeInfo &info);  // boxes do not emit
     // Shape groups hold meshes that neither emit nor bound media, traced only through their
     // instances: each places the whole group by an affine map (Mitsuba's shapegroup and
     // instance).
     int add_group() { return geometry.add_group(); }
     int add_instance(int group, const Transform &to_world, const Transform &to_local);
-    int add_light(const Light &l);  // counts point_and_directional
+    int add_light(const Light &l, uint8_t hidden_from = 0);  // counts point_and_directional
     // Replaces light i by another of its kind (an animation's sun); build() then redoes
     // what depends on the lights, not the geometry.
     void set_light(int i, const Light &l);

@@ -160,6 +160,10 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
         light = choice ? (*choice)[size_t(i)] : i;
         select = 1.0 / Real(n);
     }
+    if (!surface && scene.light_hides_from(light, RayKind::Scatter)) return Spectrum(0.0);
+    // A light that casts no shadow: nothing to trace toward it, and nothing to weigh NEE
+    // against (Path::add_emission leaves it to NEE).
+    const bool unshadowed = scene.light_hides_from(light, RayKind::Shadow);
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) || !(ls.pdf > 0) || is_black(ls.L))
         return Spectrum(0.0);
@@ -176,7 +180,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     Real remaining = remaining0;
     int current = surface ? medium_after_crossing(*surface, ls.d, n, medium) : medium;
     bool left_guided_air = false;  // the last crossing led from guided air into vacuum
-    for (int crossing = 0;; ++crossing) {
+    for (int crossing = 0; !unshadowed; ++crossing) {
         if (crossing > kMaxNullCrossings) return Spectrum(0.0);
         Intersection its;
         const bool hit = scene.intersect(ray, its, current);
@@ -266,7 +270,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     if (left_guided_air && leads_to_suns_only(scene, scene.lights[light])) r_u = Spectrum(0.0);
     // Phase sampling would start from free flight's vertex.
     r_l *= r_p * (select * ls.pdf);
-    const Real r_scatter = ls.delta || !mis || is_black(r_u)
+    const Real r_scatter = ls.delta || !mis || unshadowed || is_black(r_u)
                                ? 0.0
                                : average(r_u * (toward_light ? free_flight_density(*vertex) : r_p) * pdf(ls.d));
     return beta * f * T_ray * ls.L * mis_over_a(average(r_l), r_scatter);
@@ -462,6 +466,10 @@ void Path::add_medium_emission(const MediumProperties &mp, const Spectrum &sigma
 // distance strategies where they can find it.
 void Path::add_emission(const Spectrum &Le, int light, Real pdf_light_dir) {
     if (is_black(Le)) return;
+    // Scene::light_hidden_from: a light hidden from scattered rays; one that casts no
+    // shadow, which NEE alone finds wherever it can.
+    if (ray_kind == RayKind::Scatter && scene.light_hides_from(light, RayKind::Scatter)) return;
+    if (feat.nee && !specular_bounce && scene.light_hides_from(light, RayKind::Shadow)) return;
     if (specular_bounce) {
         L += beta * Le / average(r_u);
     } else if (feat.emission_after_scatter) {
@@ -855,8 +863,8 @@ Step Path::at_surface(const Intersection &its) {
     if (shape.hides_from(ray_kind)) return pass_through();
     if (shape.light >= 0) {
         const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-        if (dot(ray.d, its.n) < 0 || area.twosided)
-            add_emission(area.radiance, shape.light,
+        if (const Real cos_l = area.twosided ? std::abs(dot(ray.d, its.n)) : -dot(ray.d, its.n); cos_l > 0)
+            add_emission(area.radiance * spread_falloff(area, cos_l), shape.light,
                          light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
     const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];

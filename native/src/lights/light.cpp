@@ -116,7 +116,8 @@ struct Sample {
                 out.d = d;
                 out.dist = t0;
                 out.pdf = uniform_cone_pdf(cos_max);
-                out.L = dot(n, d) < 0 || l.twosided ? l.radiance : Spectrum(0.0);
+                const Real cos_l = l.twosided ? std::abs(dot(n, d)) : -dot(n, d);
+                out.L = cos_l > 0 ? l.radiance * spread_falloff(l, cos_l) : Spectrum(0.0);
                 return out.pdf > 0 && std::isfinite(out.pdf);
             }
             n = sample_uniform_sphere(u);
@@ -142,7 +143,7 @@ struct Sample {
         const Real cos_l = l.twosided ? std::abs(dot(n, out.d)) : -dot(n, out.d);
         if (cos_l <= 0) return false;  // the back of a one-sided emitter is dark
         out.pdf = pdf_area * d2 / cos_l;
-        out.L = l.radiance;
+        out.L = l.radiance * spread_falloff(l, cos_l);
         return true;
     }
 };
@@ -177,6 +178,11 @@ struct Pdf {
 
 void prepare_light(Light &light, const Geometry &geometry) {
     if (auto *area = std::get_if<AreaLight>(&light)) {
+        if (const Real h = area->spread / 2; h < kPi / 2) {
+            area->tan_half_spread = std::tan(h);
+            // tan h - h cancels for a narrow spread: its series there (next term 17 h^7 / 315).
+            area->spread_normalization = 1 / (h < 0.05 ? h * h * h * (1.0 / 3 + h * h * 2 / 15) : std::tan(h) - h);
+        }
         const ShapeGeometry &sg = geometry.shapes[area->shape];
         if (sg.is_sphere()) {
             const Sphere &s = geometry.spheres[sg.index];

@@ -44,8 +44,11 @@ int Scene::add_medium(const Medium &m) {
     return int(media.size()) - 1;
 }
 
-int Scene::add_light(const Light &l) {
+int Scene::add_light(const Light &l, uint8_t hidden_from) {
+    if (hidden_from & ~uint8_t(uint8_t(RayKind::Scatter) | uint8_t(RayKind::Shadow)))
+        throw std::invalid_argument("a light can be hidden from scatter and shadow rays only");
     lights.push_back(l);
+    light_hidden_from.push_back(hidden_from);
     if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l)) ++point_and_directional;
     if (is_infinite(l)) infinite_lights.push_back(int(lights.size()) - 1);
     if (!std::holds_alternative<EnvironmentLight>(l)) segment_lights.push_back(int(lights.size()) - 1);
@@ -88,12 +91,18 @@ void check_info(const Scene &s, const ShapeInfo &info) {
     check(info.exterior, s.media.size(), "exterior medium");
     if (info.bsdf < 0) throw std::invalid_argument("a shape needs a bsdf");
 }
+
+AreaLight area_light(int shape, const AreaEmission &e) {
+    if (!(e.spread > 0 && e.spread <= kPi)) throw std::invalid_argument("an area light's spread must be in (0, pi]");
+    AreaLight light{shape, e.radiance};
+    light.twosided = e.twosided, light.spread = e.spread;
+    return light;
+}
 }  // namespace
 
-int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectrum *radiance, bool twosided,
-                          int group) {
+int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const AreaEmission *emission, int group) {
     check_info(*this, info);
-    if (group >= 0 && (radiance || info.medium_interface))
+    if (group >= 0 && (emission || info.medium_interface))
         throw std::invalid_argument("a shape group's shapes can neither emit nor bound a medium");
     for (const auto &t : mesh.triangles)
         for (uint32_t v : t)
@@ -103,18 +112,18 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const Spectr
     geometry_built = false;
     const int id = geometry.add_mesh(std::move(mesh), group);
     shapes.push_back(info);
-    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0, {}, twosided});
+    if (emission) shapes.back().light = add_light(area_light(id, *emission), emission->hidden_from);
     built = false;
     return id;
 }
 
-int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const Spectrum *radiance, bool twosided) {
+int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const AreaEmission *emission) {
     check_info(*this, info);
     if (!(s.radius > 0)) throw std::invalid_argument("sphere radius must be positive");
     geometry_built = false;
     const int id = geometry.add_sphere(s);
     shapes.push_back(info);
-    if (radiance) shapes.back().light = add_light(AreaLight{id, *radiance, {}, 0, {}, twosided});
+    if (emission) shapes.back().light = add_light(area_light(id, *emission), emission->hidden_from);
     built = false;
     return id;
 }
