@@ -121,7 +121,7 @@ class _Reader:
         return _PARAM.sub(substitute, value)
 
     def floats(self, file, node, text, count, what):
-        parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+        parts = text.replace(",", " ").split()
         try:
             values = [float(p) for p in parts]
         except ValueError:
@@ -195,7 +195,7 @@ class _Reader:
         return sorted(pairs)
 
     def transform(self, file, node):
-        m = np.eye(4)
+        m = None
         for op in node.children:
             tag = _OLD_NAMES.get(op.tag, op.tag)
             if tag not in _TRANSFORM_OPS:
@@ -204,8 +204,9 @@ class _Reader:
                     op,
                     f"unknown transform operation <{op.tag}> (expected one of {', '.join(sorted(_TRANSFORM_OPS))})",
                 )
-            m = self.transform_op(file, op, tag) @ m
-        return m
+            t = self.transform_op(file, op, tag)
+            m = t if m is None else t @ m
+        return np.eye(4) if m is None else m
 
     def xyz(self, file, node, default):
         if "value" in node.attrs:

@@ -471,10 +471,11 @@ PYBIND11_MODULE(_core, m) {
         .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
         .def(
             "add_instance",
-            [](Scene &s, int group, const DoubleArray &to_world, const DoubleArray &to_local) {
-                return s.add_instance(group, transform(to_world), transform(to_local));
+            [](Scene &s, int group, const DoubleArray &to_world) {
+                const Transform t = transform(to_world);
+                return s.add_instance(group, t, t.inverse());
             },
-            py::arg("group"), py::arg("to_world"), py::arg("to_local"))
+            py::arg("group"), py::arg("to_world"))
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,

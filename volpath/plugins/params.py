@@ -99,7 +99,8 @@ class Params:
         m = np.asarray(v, dtype=np.float64) if isinstance(v, (list, tuple, np.ndarray)) else None
         if m is None or m.shape != (4, 4) or not np.all(np.isfinite(m)):
             raise self.error(f"'{name}' must be a 4x4 transform")
-        if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+        (a, b, c), (d, e, f), (g, h, i) = m[:3, :3].tolist()
+        if abs(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)) < 1e-300:
             raise self.error(f"'{name}' is singular")
         return m
 

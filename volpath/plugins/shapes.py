@@ -182,7 +182,7 @@ def instance(b, d):
     if len(groups) != 1:
         raise p.error(f"an instance names exactly one shapegroup (found {len(groups)})")
     group = shape_group(b, groups[0])
-    b.native.add_instance(group, to_world, np.linalg.inv(to_world))
+    b.native.add_instance(group, to_world)
     b.summary["instances"] += 1
     p.check()
 

