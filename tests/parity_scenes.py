@@ -60,6 +60,18 @@ def area_light_spread(scene):
     _light("AREA", 150, location=(1.5, 0, 2), rotation=(0.4, 0, 0), shape="DISK", size=0.8, spread=math.radians(100))
 
 
+def light_visibility(scene):
+    """A point light that casts no shadow (Cast Shadow off) beside a cube and a box of smoke,
+    and an area light that lights no medium (Volume Scatter off) above the smoke."""
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(-1.2, 0, 0.5))
+    bpy.ops.mesh.primitive_cube_add(size=1.4, location=(1.2, 0, 0.75))
+    bpy.context.object.data.materials.append(volume_material("smoke", density=1.5, color=(0.8, 0.8, 0.8)))
+    _light("POINT", 400, location=(-2, -1, 3), shadow_soft_size=0, use_shadow=False)
+    _light("AREA", 120, location=(1.2, 0, 2.5), size=1.0).visible_volume_scatter = False
+    set_background(scene, (0.05, 0.05, 0.05))
+
+
 def emission_shader(scene):
     _floor(), _view(scene)
     bpy.ops.mesh.primitive_plane_add(size=1.5, location=(0, 0.5, 1.5), rotation=(math.pi, 0, 0))
@@ -178,6 +190,7 @@ SCENES = {
     "sun with an angle": sun_with_angle,
     "area lights": area_lights,
     "area light spread": area_light_spread,
+    "light visibility": light_visibility,
     "emission shader": emission_shader,
     "glass and metal": glass_and_metal,
     "textured principled": textured_principled,

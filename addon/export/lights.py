@@ -45,9 +45,10 @@ def export(obj, matrix_world, report):
         # that needs the BSDFs' lobes apart, which Volpath's NEE does not have.
         kinds = ", ".join(unsupported)
         report.warn(f"light '{name}': ray visibility off for {kinds} is not supported (visible to all)")
-    # Volume Scatter off: it lights no medium; Shadow off: it casts no shadow.
-    hidden = {"hidden_from": ", ".join(k for k in off if k in ("scatter", "shadow"))}
-    hidden = hidden if hidden["hidden_from"] else {}
+    # Volume Scatter off: it lights no medium. Cast Shadow off: it casts none (Cycles reads
+    # the light's own switch, not the object's Shadow visibility).
+    kinds = (["scatter"] if "scatter" in off else []) + ([] if light.use_shadow else ["shadow"])
+    hidden = {"hidden_from": ", ".join(kinds)} if kinds else {}
     if light.type == "POINT":
         if light.shadow_soft_size > 0:
             report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")

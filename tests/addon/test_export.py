@@ -395,6 +395,7 @@ def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(
     bpy.context.object.visible_glossy = False
     bpy.ops.object.light_add(type="POINT")
     bpy.context.object.visible_volume_scatter = bpy.context.object.visible_shadow = False
+    bpy.context.object.data.use_shadow = False  # Cast Shadow: the object's Shadow flag is not it
     exported = export_scene(depsgraph())
     assert exported.scene["Cube"]["hidden_from"] == "camera, diffuse, shadow"
     assert exported.scene["Point"]["hidden_from"] == "scatter, shadow"
