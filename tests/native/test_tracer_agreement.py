@@ -152,6 +152,48 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
     assert max_z(a[0], a[1], b[0], b[1]) < Z_MAX
 
 
+def test_forced_collisions_nee_agrees_with_delta_tracking(tmp_path):
+    """The camera's forced collisions in a grid of grey density take their NEE whatever the
+    real-or-null choice (weighted by sigma_s / sigma_maj); a density that is not quite grey
+    (the third channel 1e-7 denser) keeps the NEE with the choice. Same medium, same image:
+    emission, an absorbing albedo, a sun, an area light and a sky behind, under one global
+    majorant (most collisions null) and under local ones."""
+    from volpath.grids import write_vol
+
+    rng = np.random.default_rng(5)
+    density = rng.uniform(0.0, 3.0, (6, 6, 6)).astype(np.float32)
+    density[2, 3, 1] = 20.0
+    write_vol(tmp_path / "grey.vol", density[..., None])
+    write_vol(tmp_path / "rgb.vol", np.stack([density, density, density * np.float32(1 + 1e-7)], axis=-1))
+
+    def scene(grid, majorant_res):
+        return volpath.load_string(
+            S.scene(
+                S.camera(res=16, spp=32),
+                S.floor(),
+                S.area_light_above(size=1.0, radiance="5, 5, 5"),
+                S.constant_env("0.3, 0.3, 0.4"),
+                SUN,
+                f"""
+            <medium type="heterogeneous" id="m">
+                <volume type="gridvolume" name="sigma_t"><string name="filename" value="{grid}"/>
+                    <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
+                <rgb name="albedo" value="0.9, 0.6, 0.95"/>
+                <rgb name="radiance" value="0.5, 0.2, 0.1"/>
+                <integer name="majorant_resolution" value="{majorant_res}"/>
+                <phase type="hg"><float name="g" value="0.5"/></phase>
+            </medium>""",
+                S.medium_cube("m", 0.8),
+            ),
+            base_dir=str(tmp_path),
+        )
+
+    for majorant_res in (1, 0):
+        a = render_batches(volpath.render, scene("grey.vol", majorant_res), 6, block=4, tracer="null_scattering")
+        b = render_batches(volpath.render, scene("rgb.vol", majorant_res), 6, block=4, tracer="null_scattering")
+        assert max_z(a[0], a[1], b[0], b[1]) < Z_MAX, majorant_res
+
+
 def test_dielectric_sphere_with_medium_inside():
     """Refraction into a medium: nee_mis and multiple agree through a specular interface."""
     xml = S.scene(

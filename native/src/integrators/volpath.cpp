@@ -375,7 +375,9 @@ struct Path {
     Step at_surface(const Intersection &its);
 
     // Scattering and what it gathers.
-    bool scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex = nullptr);
+    // `gathered`: its NEE is taken already (fly_through_medium's forced collisions).
+    bool scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex = nullptr,
+                           bool gathered = false);
     bool roulette_after_sky_model(const Spectrum &arriving);
     bool roulette();
     Spectrum direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
@@ -526,14 +528,14 @@ void Path::segment_direct(const Medium &m, const HomogeneousMedium &h, Real t_en
 
 // A real scattering event at p in medium m, beta already weighted for reaching it:
 // NEE, then phase sampling of the next ray and Russian roulette. False: the path ends.
-bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex) {
+bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex, bool gathered) {
     ++depth;
     const PhaseFunction phase = medium_phase(m, p);
     const SkyMap *map = sky_map_of(m);
     const bool models = map && map->models_light && feat.nee && scene.air_models_hold(p);
     const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
     if (feat.nee) {
-        if (!vertex || !scene.collision_nee_lights[feat.mis].empty())
+        if (!gathered && (!vertex || !scene.collision_nee_lights[feat.mis].empty()))
             L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
         // Nothing left that the path could find?
         if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
@@ -778,12 +780,27 @@ Step Path::fly_through_medium(Real t_end) {
         r_u *= T_maj / pdf;
     } else if (!pass_through) {
         bool scattered = false, terminated = false;
+        // A grid's forced collision takes its NEE whatever the real-or-null choice, weighted
+        // by sigma_s / sigma_maj instead of drawn with probability sigma_t / sigma_maj: the
+        // light a fog bank scatters toward the camera is then no longer a coin toss at each
+        // of the camera's forced collisions. Phase sampling from there still follows the
+        // choice, which weights it by sigma_s / sigma_maj on average too, as MIS expects.
+        bool nee_at_tentative = forced > 0 && feat.nee && std::holds_alternative<GridMedium>(m);
         ChoiceChain real_or_null;
         const Spectrum T_maj = sample_T_maj(
             m, ray, t_end, channel, sampler,
             [&](const Vec3 &p, Real t, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
                 const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
                 add_medium_emission(mp, sigma_maj, T_seg);
+                // (Grey coefficients only: the channels' densities then agree, and the MIS
+                // weights with them.)
+                const bool gathered = nee_at_tentative && !last_vertex() && is_grey(sigma_maj) && is_grey(sigma_t);
+                if (gathered) {
+                    const Real pdf = T_seg[channel] * sigma_maj[channel];
+                    L += direct_in_medium(p, medium_phase(m, p), beta * T_seg * mp.sigma_s / pdf,
+                                          r_u * T_seg * sigma_maj / pdf, nullptr);
+                }
+                nee_at_tentative = false;
                 // Real or null collision, in proportion to sigma_t : sigma_n in the
                 // sampling channel. Absorption is not sampled: it weights beta. All the
                 // segment's choices come from one uniform (ChoiceChain): the segment is
@@ -801,7 +818,7 @@ Step Path::fly_through_medium(Real t_end) {
                     // In a homogeneous segment T_seg runs from its start.
                     std::optional<SegmentVertex> vertex;
                     if (segment_nee) vertex = SegmentVertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
-                    if (is_black(beta) || !scatter_in_medium(p, m, vertex ? &*vertex : nullptr)) {
+                    if (is_black(beta) || !scatter_in_medium(p, m, vertex ? &*vertex : nullptr, gathered)) {
                         terminated = true;
                         return false;
                     }
