@@ -110,6 +110,29 @@ def test_chromatic_homogeneous_agrees_with_grid_of_same_density(tmp_path):
     assert max_z(a[0], a[1], b[0], b[1]) < Z_MAX
 
 
+def _lit_grid(tmp_path, grid, majorant_res, g=0.3, extra=""):
+    """A grid medium in a cube over a floor, under an area light, a sky and a sun."""
+    return volpath.load_string(
+        S.scene(
+            S.camera(res=16, spp=32),
+            S.floor(),
+            S.area_light_above(size=1.0, radiance="5, 5, 5"),
+            S.constant_env("0.3, 0.3, 0.4"),
+            SUN,
+            f"""
+        <medium type="heterogeneous" id="m">
+            <volume type="gridvolume" name="sigma_t"><string name="filename" value="{grid}"/>
+                <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
+            <rgb name="albedo" value="0.9, 0.6, 0.95"/>{extra}
+            <integer name="majorant_resolution" value="{majorant_res}"/>
+            <phase type="hg"><float name="g" value="{g}"/></phase>
+        </medium>""",
+            S.medium_cube("m", 0.8),
+        ),
+        base_dir=str(tmp_path),
+    )
+
+
 def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
     """Real-or-null choices along a segment share one remapped uniform (ChoiceChain): under
     one global majorant, set by a single hot voxel, each real collision follows a run of
@@ -127,25 +150,7 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
     write_vol(tmp_path / "g.vol", data)
 
     def scene(majorant_res):
-        return volpath.load_string(
-            S.scene(
-                S.camera(res=16, spp=32),
-                S.floor(),
-                S.area_light_above(size=1.0, radiance="5, 5, 5"),
-                S.constant_env("0.3, 0.3, 0.4"),
-                SUN,
-                f"""
-            <medium type="heterogeneous" id="m">
-                <volume type="gridvolume" name="sigma_t"><string name="filename" value="g.vol"/>
-                    <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
-                <rgb name="albedo" value="0.9, 0.6, 0.95"/>
-                <integer name="majorant_resolution" value="{majorant_res}"/>
-                <phase type="hg"><float name="g" value="0.3"/></phase>
-            </medium>""",
-                S.medium_cube("m", 0.8),
-            ),
-            base_dir=str(tmp_path),
-        )
+        return _lit_grid(tmp_path, "g.vol", majorant_res)
 
     a = render_batches(volpath.render, scene(1), 6, block=4, tracer="null_scattering")
     b = render_batches(volpath.render, scene(12), 6, block=4, tracer="null_scattering")
@@ -167,25 +172,8 @@ def test_forced_collisions_nee_agrees_with_delta_tracking(tmp_path):
     write_vol(tmp_path / "rgb.vol", np.stack([density, density, density * np.float32(1 + 1e-7)], axis=-1))
 
     def scene(grid, majorant_res):
-        return volpath.load_string(
-            S.scene(
-                S.camera(res=16, spp=32),
-                S.floor(),
-                S.area_light_above(size=1.0, radiance="5, 5, 5"),
-                S.constant_env("0.3, 0.3, 0.4"),
-                SUN,
-                f"""
-            <medium type="heterogeneous" id="m">
-                <volume type="gridvolume" name="sigma_t"><string name="filename" value="{grid}"/>
-                    <transform name="to_world"><translate value="-0.5"/><scale value="1.6"/></transform></volume>
-                <rgb name="albedo" value="0.9, 0.6, 0.95"/>
-                <rgb name="radiance" value="0.5, 0.2, 0.1"/>
-                <integer name="majorant_resolution" value="{majorant_res}"/>
-                <phase type="hg"><float name="g" value="0.5"/></phase>
-            </medium>""",
-                S.medium_cube("m", 0.8),
-            ),
-            base_dir=str(tmp_path),
+        return _lit_grid(
+            tmp_path, grid, majorant_res, 0.5, '\n            <rgb name="radiance" value="0.5, 0.2, 0.1"/>'
         )
 
     for majorant_res in (1, 0):
