@@ -27,9 +27,14 @@ VISIBILITY = {
 }
 
 
+def hidden_kinds(obj):
+    """The ray kinds whose visibility flag is off on an object."""
+    return [kind for flag, kind in VISIBILITY.items() if not getattr(obj, flag, True)]
+
+
 def hidden_from(obj):
     """The scene's `hidden_from` of an object: its ray visibility flags that are off."""
-    return ", ".join(kind for flag, kind in VISIBILITY.items() if not getattr(obj, flag, True))
+    return ", ".join(hidden_kinds(obj))
 
 
 def export(obj, matrix_world, report):
@@ -38,7 +43,7 @@ def export(obj, matrix_world, report):
     light = obj.data
     color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
-    off = hidden_from(obj).split(", ")
+    off = hidden_kinds(obj)
     unsupported = [k for k in off if k in ("diffuse", "glossy", "transmission")]
     if unsupported:
         # A light hidden from diffuse rays lights no diffuse surface in Cycles (its NEE too):

@@ -44,6 +44,12 @@ struct AreaEmission {
     uint8_t hidden_from = 0;  // Scene::light_hidden_from
 };
 
+// The cosine at which light from an area light's point with normal n leaves toward a
+// receiver that sees it along d: <= 0 where nothing leaves that way (a one-sided back).
+inline Real emitting_cos(const AreaLight &l, const Vec3 &n, const Vec3 &d) {
+    return l.twosided ? std::abs(dot(n, d)) : -dot(n, d);
+}
+
 // The factor on an area light's radiance toward a direction at cos_theta to its normal
 // (> 0 on the emitting side). A spread below pi is a grid of slats in front of the
 // emitter, as on a soft box: along the normal it hides nothing, and at an angle theta the

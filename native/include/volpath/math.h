@@ -107,8 +107,8 @@ struct Transform {
                 m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
     }
     // The inverse of an invertible affine map: the linear part's by cofactors, then the
-    // translation taken back through it. (A hundred thousand instances each need one:
-    // numpy's took 20 to 240 microseconds apiece, this a few nanoseconds.)
+    // translation taken back through it (each instance needs one: numpy's, per matrix,
+    // was most of a large field's load time).
     Transform inverse() const {
         const Real c[3][3] = {{m[1][1] * m[2][2] - m[1][2] * m[2][1], m[0][2] * m[2][1] - m[0][1] * m[2][2],
                                m[0][1] * m[1][2] - m[0][2] * m[1][1]},

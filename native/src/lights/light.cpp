@@ -116,7 +116,7 @@ struct Sample {
                 out.d = d;
                 out.dist = t0;
                 out.pdf = uniform_cone_pdf(cos_max);
-                const Real cos_l = l.twosided ? std::abs(dot(n, d)) : -dot(n, d);
+                const Real cos_l = emitting_cos(l, n, d);
                 out.L = cos_l > 0 ? l.radiance * spread_falloff(l, cos_l) : Spectrum(0.0);
                 return out.pdf > 0 && std::isfinite(out.pdf);
             }
@@ -140,7 +140,7 @@ struct Sample {
         out.dist = std::sqrt(d2);
         if (!(out.dist > 0)) return false;
         out.d = to / out.dist;
-        const Real cos_l = l.twosided ? std::abs(dot(n, out.d)) : -dot(n, out.d);
+        const Real cos_l = emitting_cos(l, n, out.d);
         if (cos_l <= 0) return false;  // the back of a one-sided emitter is dark
         out.pdf = pdf_area * d2 / cos_l;
         out.L = l.radiance * spread_falloff(l, cos_l);
