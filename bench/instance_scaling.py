@@ -19,7 +19,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-from mesh_loading import bumpy_sphere, measure  # noqa: E402  (bench/)
+from mesh_loading import PEAK_MEMORY, bumpy_sphere, measure  # noqa: E402  (bench/)
 from publish import publish  # noqa: E402
 
 SPP = 4
@@ -39,8 +39,10 @@ HEAD = """<scene version="3.0.0">
 """
 
 # Run in a child: argv = renderer, scene path. Prints RESULT {"load", "per_sample", "peak"}.
-CHILD = r"""
-import json, resource, sys, time
+CHILD = (
+    PEAK_MEMORY
+    + r"""
+import json, sys, time
 renderer, path = sys.argv[1:]
 SPP = 4
 if renderer == "volpath":
@@ -58,7 +60,7 @@ else:
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     load, render = mi.load_file, lambda scene: mi.render(scene, spp=SPP)
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+base = peak_memory()
 start = time.perf_counter()
 scene = load(path)
 if renderer == "volpath":
@@ -73,9 +75,10 @@ if renderer == "cycles":  # each render synchronises the scene again: the sample
     per_sample = ((done - loaded) - (loaded - built)) / (SPP - 1)
 else:
     per_sample = (done - loaded) / SPP
-peak = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) * 1024
+peak = peak_memory() - base
 print("RESULT", json.dumps({"load": loaded - start, "per_sample": per_sample, "peak": peak}))
 """
+)
 
 
 def cycles_scene(path):

@@ -35,9 +35,19 @@ SCENE = """<scene version="3.0.0">
 </scene>
 """
 
+# A child's peak resident memory, in bytes: VmHWM, not ru_maxrss, which Linux carries over
+# exec from the parent (a large benchmark process would hide the child's own peak).
+PEAK_MEMORY = r"""
+def peak_memory():
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmHWM:"))
+"""
+
 # Run in a child: argv = renderer, scene path. Prints RESULT {"load": s, "peak": bytes}.
-CHILD = r"""
-import json, resource, sys, time
+CHILD = (
+    PEAK_MEMORY
+    + r"""
+import json, sys, time
 renderer, path = sys.argv[1:]
 if renderer == "volpath":
     import volpath
@@ -63,12 +73,13 @@ else:
     mi.set_variant("scalar_rgb")
     load = lambda: mi.load_file(path)
     render = lambda s: mi.render(s, spp=1)
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+base = peak_memory()
 start = time.perf_counter()
 render(load())
 seconds = time.perf_counter() - start
-print("RESULT", json.dumps({"load": seconds, "peak": (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) * 1024}))
+print("RESULT", json.dumps({"load": seconds, "peak": peak_memory() - base}))
 """
+)
 
 
 def bumpy_sphere(triangles):
@@ -155,8 +166,8 @@ def main():
     section = (
         "\n## Loading a large mesh (issue #37; `bench/mesh_loading.py`)\n\n"
         "One bumpy sphere, 8x8 pixels, each measurement in a fresh process: loading the file to a "
-        "built scene (and a 1-spp render), and the peak resident memory above the process's after its "
-        "imports. Volpath, Mitsuba 3.9.1 scalar_rgb and Cycles 5.0 (Blender's PLY/OBJ importer, then its "
+        "built scene (and a 1-spp render), and the process's own peak resident memory (VmHWM) above what "
+        "it held after its imports. Volpath, Mitsuba 3.9.1 scalar_rgb and Cycles 5.0 (Blender's PLY/OBJ importer, then its "
         "render's scene and BVH), all on the machine's cores, same run; the ratios are Volpath's over the "
         "better of the two peers."
         + (f" Plotted log-log in `{args.plot}`." if args.plot else "")

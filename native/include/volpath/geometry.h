@@ -123,8 +123,8 @@ public:
     // box's surface exactly; a mesh's wherever its bounds overlap `b`).
     bool may_touch_surface(int shape, const Bounds &b, Real eps) const;
     // Bytes held: the shapes as given (meshes' vertices, normals and triangles, spheres,
-    // boxes, instances) and the acceleration structures (BVH nodes, primitives, their
-    // vertices; the scene's and each group's).
+    // boxes, instances) and the acceleration structures (BVH nodes and primitives; the
+    // scene's and each group's).
     size_t shape_bytes() const;
     size_t bvh_bytes() const;
 
@@ -144,10 +144,9 @@ private:
     };
     // One BVH: the scene's, or a shape group's (of its meshes alone).
     struct Bvh {
+        // A triangle is read through its mesh's index triple: a copy of its vertices in BVH
+        // order would save that step at 72 bytes a triangle, three times the mesh's own.
         std::vector<Primitive> prims;
-        // Per primitive, in BVH order: a triangle's three vertices side by side (no index
-        // chain to follow during traversal); unused for the other kinds.
-        std::vector<std::array<Vec3, 3>> vertices;
         std::vector<ShapeGeometry::Kind> kind;
         std::vector<Node> nodes;
         Bounds bounds;  // of all its primitives, exact
@@ -165,14 +164,27 @@ private:
     bool moves_away_from_enclosure(const Ray &ray) const;
 
     Bounds primitive_bounds(const Primitive &p) const;
-    bool overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const;
+    bool overlaps_another(const Bounds &box, uint32_t self) const;
+    // A mesh primitive's vertices.
+    std::array<Vec3, 3> triangle(const Primitive &p) const {
+        const TriangleMesh &m = meshes[size_t(shapes[size_t(p.shape)].index)];
+        const auto &t = m.triangles[p.index];
+        return {m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]};
+    }
     // The BVH over `prims` (taken).
     Bvh build_bvh(std::vector<Primitive> prims) const;
+    // A primitive's bounds during the build, in floats rounded outward: half the memory of
+    // doubles, and the nodes (rounded so too) bound the same boxes.
+    struct BuildBounds {
+        float lo[3], hi[3];
+        Bounds widened() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
+    };
     // The subtree over prims [begin, end), its nodes appended to `nodes`; returns its root.
     static uint32_t build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims,
-                                    std::vector<Bounds> &bounds, uint32_t begin, uint32_t end, int spare_threads);
-    static void build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
-                               uint32_t node, uint32_t begin, uint32_t mid, uint32_t end, int spare_threads);
+                                    std::vector<BuildBounds> &bounds, uint32_t begin, uint32_t end, int spare_threads);
+    static void build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims,
+                               std::vector<BuildBounds> &bounds, uint32_t node, uint32_t begin, uint32_t mid,
+                               uint32_t end, int spare_threads);
     struct PreparedRay;  // per-ray set-up of the slab and triangle tests
     // The closest hit so far: its distance, and barycentrics for triangles. The point and
     // normals are worked out once, for the hit that stays (finish).

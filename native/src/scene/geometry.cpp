@@ -112,28 +112,37 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
     return b;
 }
 
+namespace {
+// The float nearest x on the side away from the box's inside.
+float rounded_down(Real x) {
+    const float f = float(x);
+    return Real(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float rounded_up(Real x) {
+    const float f = float(x);
+    return Real(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+}  // namespace
+
 Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
     Bvh bvh;
     bvh.prims = std::move(prims);
     if (bvh.prims.empty()) return bvh;
-    {  // (the primitives' bounds are freed before their vertices are copied: a lower peak)
-        std::vector<Bounds> bounds(bvh.prims.size());
-        for (size_t i = 0; i < bvh.prims.size(); ++i) bvh.bounds.extend(bounds[i] = primitive_bounds(bvh.prims[i]));
+    {
+        std::vector<BuildBounds> bounds(bvh.prims.size());
+        for (size_t i = 0; i < bvh.prims.size(); ++i) {
+            const Bounds b = primitive_bounds(bvh.prims[i]);
+            bvh.bounds.extend(b);
+            for (int a = 0; a < 3; ++a) bounds[i].lo[a] = rounded_down(b.lo[a]), bounds[i].hi[a] = rounded_up(b.hi[a]);
+        }
         bvh.nodes.reserve(2 * bvh.prims.size());
         const int spare_threads = int(std::thread::hardware_concurrency()) - 1;
         build_recursive(bvh.nodes, bvh.prims, bounds, 0, uint32_t(bvh.prims.size()), spare_threads);
     }
-    bvh.vertices.assign(bvh.prims.size(), {});
+    bvh.nodes.shrink_to_fit();  // (its copy, made once the bounds are freed, stays under the build's peak)
     bvh.kind.assign(bvh.prims.size(), ShapeGeometry::Kind::Instance);
-    for (size_t i = 0; i < bvh.prims.size(); ++i) {
-        const Primitive &p = bvh.prims[i];
-        if (p.shape < 0) continue;
-        const ShapeGeometry &g = shapes[size_t(p.shape)];
-        bvh.kind[i] = g.kind;
-        if (g.kind != ShapeGeometry::Kind::Mesh) continue;
-        const TriangleMesh &m = meshes[g.index];
-        for (int k = 0; k < 3; ++k) bvh.vertices[i][k] = m.positions[m.triangles[p.index][k]];
-    }
+    for (size_t i = 0; i < bvh.prims.size(); ++i)
+        if (bvh.prims[i].shape >= 0) bvh.kind[i] = shapes[size_t(bvh.prims[i].shape)].kind;
     return bvh;
 }
 
@@ -164,25 +173,23 @@ void Geometry::build() {
     }
     top_ = build_bvh(std::move(scene_prims));
     if (top_.prims.empty()) return;
-    std::vector<Bounds> bounds(top_.prims.size());
-    for (size_t i = 0; i < top_.prims.size(); ++i) bounds[i] = primitive_bounds(top_.prims[i]);
     auto solid = [&](uint32_t i) {
         return top_.kind[i] == ShapeGeometry::Kind::Sphere || top_.kind[i] == ShapeGeometry::Kind::Box;
     };
     // Spheres and boxes whose bounds no other primitive's overlap are empty inside. Their
     // bounds shrink by 1e-9 of their size first, so that a floor touching a sphere's bottom
     // (to rounding) does not count: the sphere's exit is then found first within ray_epsilon.
+    // The enclosure: the largest of them, if it holds all the rest.
+    Real enclosure_area = 0;
     for (uint32_t i = 0; i < top_.prims.size(); ++i) {
         if (!solid(i)) continue;
-        const Vec3 margin(1e-9 * max_component(bounds[i].hi - bounds[i].lo));
+        const Bounds b = primitive_bounds(top_.prims[i]);
+        const Vec3 margin(1e-9 * max_component(b.hi - b.lo));
         Bounds inner;
-        inner.lo = bounds[i].lo + margin, inner.hi = bounds[i].hi - margin;
-        if (!overlaps_another(inner, i, bounds)) solid_prim_[size_t(top_.prims[i].shape)] = i;
-    }
-    // The enclosure: the largest sphere or box, if it holds all the rest.
-    for (uint32_t i = 0; i < top_.prims.size(); ++i) {
-        if (solid(i) && (enclosure_ == kNoPrim || bounds[i].surface_area() > bounds[enclosure_].surface_area()))
-            enclosure_ = i;
+        inner.lo = b.lo + margin, inner.hi = b.hi - margin;
+        if (!overlaps_another(inner, i)) solid_prim_[size_t(top_.prims[i].shape)] = i;
+        if (enclosure_ == kNoPrim || b.surface_area() > enclosure_area)
+            enclosure_ = i, enclosure_area = b.surface_area();
     }
     for (uint32_t i = 0; i < top_.prims.size() && enclosure_ != kNoPrim; ++i) {
         if (i != enclosure_ && !holds(enclosure_, top_.prims[i])) enclosure_ = kNoPrim;
@@ -239,7 +246,7 @@ bool Geometry::moves_away_from_enclosure(const Ray &ray) const {
 
 // Whether any primitive but `self` has bounds overlapping `box` (open intervals): the BVH's
 // nodes narrow the search to the primitives near it.
-bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vector<Bounds> &bounds) const {
+bool Geometry::overlaps_another(const Bounds &box, uint32_t self) const {
     auto overlap = [&](const Vec3 &lo, const Vec3 &hi) {
         return lo.x < box.hi.x && hi.x > box.lo.x && lo.y < box.hi.y && hi.y > box.lo.y && lo.z < box.hi.z &&
                hi.z > box.lo.z;
@@ -256,7 +263,9 @@ bool Geometry::overlaps_another(const Bounds &box, uint32_t self, const std::vec
             continue;
         }
         for (uint32_t j = node.first; j < node.first + node.count; ++j) {
-            if (j != self && overlap(bounds[j].lo, bounds[j].hi)) return true;
+            if (j == self) continue;
+            const Bounds b = primitive_bounds(top_.prims[j]);
+            if (overlap(b.lo, b.hi)) return true;
         }
     }
     return false;
@@ -303,27 +312,16 @@ bool Geometry::may_touch_surface(int shape, const Bounds &b, Real eps) const {
 
 Bounds Geometry::bounds() const { return top_.bounds; }
 
-namespace {
-// The float nearest x on the side away from the box's inside.
-float rounded_down(Real x) {
-    const float f = float(x);
-    return Real(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-}
-float rounded_up(Real x) {
-    const float f = float(x);
-    return Real(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-}
-}  // namespace
-
 // Binned surface-area heuristic (Wald 2007): 16 bins along the widest centroid axis.
-uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
-                                   uint32_t begin, uint32_t end, int spare_threads) {
+uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primitive> &prims,
+                                   std::vector<BuildBounds> &bounds, uint32_t begin, uint32_t end, int spare_threads) {
     const uint32_t node_index = uint32_t(nodes.size());
     nodes.emplace_back();
     Bounds node_bounds, centroid_bounds;
     for (uint32_t i = begin; i < end; ++i) {
-        node_bounds.extend(bounds[i]);
-        centroid_bounds.extend(bounds[i].centroid());
+        const Bounds b = bounds[i].widened();
+        node_bounds.extend(b);
+        centroid_bounds.extend(b.centroid());
     }
     float *nb = nodes[node_index].bounds;
     for (int a = 0; a < 3; ++a) nb[a] = rounded_down(node_bounds.lo[a]), nb[3 + a] = rounded_up(node_bounds.hi[a]);
@@ -361,10 +359,12 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
         uint32_t n = 0;
     } bins[kBins];
     const Real lo = centroid_bounds.lo[axis], scale = kBins / extent[axis];
-    auto bin_of = [&](uint32_t i) { return std::min(kBins - 1, int((bounds[i].centroid()[axis] - lo) * scale)); };
+    auto bin_of = [&](uint32_t i) {
+        return std::min(kBins - 1, int((bounds[i].widened().centroid()[axis] - lo) * scale));
+    };
     for (uint32_t i = begin; i < end; ++i) {
         Bin &bin = bins[bin_of(i)];
-        bin.b.extend(bounds[i]);
+        bin.b.extend(bounds[i].widened());
         ++bin.n;
     }
     Real cost[kBins - 1];
@@ -408,7 +408,7 @@ uint32_t Geometry::build_recursive(std::vector<Node> &nodes, std::vector<Primiti
 // The right subtree is built on a thread of its own (while threads are spare and the range
 // is large) into nodes of its own, appended after the left subtree's: where a serial build
 // puts them, so the tree is the same whatever the thread count.
-void Geometry::build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<Bounds> &bounds,
+void Geometry::build_children(std::vector<Node> &nodes, std::vector<Primitive> &prims, std::vector<BuildBounds> &bounds,
                               uint32_t node, uint32_t begin, uint32_t mid, uint32_t end, int spare_threads) {
     constexpr uint32_t kParallelBuild = 1u << 15;
     if (spare_threads <= 0 || end - begin < kParallelBuild) {
@@ -491,7 +491,7 @@ bool Geometry::intersect_primitive(const Bvh &bvh, uint32_t i, const Ray &ray, c
         if (!(t > ray.t_min && t < t_max)) return false;
         hit.t = t;
     } else {
-        const std::array<Vec3, 3> &tri = bvh.vertices[i];
+        const std::array<Vec3, 3> tri = triangle(bvh.prims[i]);
         const Vec3 a = tri[0] - ray.o, b = tri[1] - ray.o, c = tri[2] - ray.o;
         const Real ax = a[sr.kx] - sr.sx * a[sr.kz], ay = a[sr.ky] - sr.sy * a[sr.kz];
         const Real bx = b[sr.kx] - sr.sx * b[sr.kz], by = b[sr.ky] - sr.sy * b[sr.kz];
@@ -622,9 +622,7 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
         its.n = its.ns = sp.flip_normals ? -n : n;
     } else {
-        // The vertices the intersection test just read (in cache), not the mesh's through its
-        // index chain: the same values.
-        const std::array<Vec3, 3> &v = bvh.vertices[hit.prim];
+        const std::array<Vec3, 3> v = triangle(prim);
         its.p = v[0] * hit.b0 + v[1] * hit.b1 + v[2] * hit.b2;
         its.n = normalize(cross(v[1] - v[0], v[2] - v[0]));
         its.ns = its.n;
@@ -753,7 +751,7 @@ size_t Geometry::shape_bytes() const {
 }
 
 size_t Geometry::bvh_bytes() const {
-    auto bvh = [](const Bvh &b) { return bytes(b.prims) + bytes(b.vertices) + bytes(b.kind) + bytes(b.nodes); };
+    auto bvh = [](const Bvh &b) { return bytes(b.prims) + bytes(b.kind) + bytes(b.nodes); };
     size_t n = bvh(top_) + bytes(groups_) + bytes(group_bounds_) + bytes(solid_prim_);
     for (const Bvh &g : groups_) n += bvh(g);
     return n;
