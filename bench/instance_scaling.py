@@ -3,8 +3,8 @@
 beside Mitsuba 3 (scalar_rgb, shapegroup + instance) and Cycles 5.0 (the bpy module: the
 field as geometry-node instances on points), one run. Each measurement runs in a fresh
 process: "load" is load_file to a built scene (Cycles: building the Blender scene and a 1-spp
-render, which builds its BVH), "per sample" a 4-spp render's time over its samples (Cycles:
-the 4-spp render less the 1-spp one, over 3), "peak" the process's peak resident memory less
+render, which builds its BVH), "per sample" a 16-spp render's time over its samples (Cycles:
+the 16-spp render less the 1-spp one, over 15), "peak" the process's own peak resident memory (VmHWM) less
 what it held after importing the renderer. All use all the machine's cores for the render.
 
     .venv/bin/python bench/instance_scaling.py [--counts 1000 100000] [--append bench/RESULTS.md]
@@ -22,7 +22,7 @@ sys.path.insert(0, ROOT)
 from mesh_loading import PEAK_MEMORY, bumpy_sphere, measure  # noqa: E402  (bench/)
 from publish import publish  # noqa: E402
 
-SPP = 4
+SPP = 16
 HEAD = """<scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="3"/></integrator>
   <sensor type="perspective">
@@ -44,7 +44,7 @@ CHILD = (
     + r"""
 import json, sys, time
 renderer, path = sys.argv[1:]
-SPP = 4
+SPP = 16
 if renderer == "volpath":
     import volpath
     load, render = volpath.load_file, lambda scene: volpath.render(scene, spp=SPP)
@@ -208,9 +208,9 @@ def main():
     section = (
         "\n## Instancing at scale (issue #37; `bench/instance_scaling.py`)\n\n"
         "A bumpy sphere of 0.1 M triangles alone, and instanced in a field (each turned and scaled) on a "
-        "floor; 256x256, path tracing to depth 3, 4 spp; each measurement in a fresh process, same run. Mitsuba "
+        "floor; 256x256, path tracing to depth 3, 16 spp; each measurement in a fresh process, same run. Mitsuba "
         "3.9.1 scalar_rgb with shapegroup + instance; Cycles 5.0 with geometry-node instances on points (its "
-        "load includes a 1-spp render, which builds its BVH; its time a sample is the 4-spp render's less the "
+        "load includes a 1-spp render, which builds its BVH; its time a sample is the 16-spp render's less the "
         "1-spp one's). \"vs alone\": Volpath's time a sample over its time with the mesh alone (target: at most "
         "3x at 100 000 instances, within 2 GB).\n\n"
         "| instances | triangles | Volpath load | Mitsuba load | Cycles load | Volpath a sample | Mitsuba a sample "
