@@ -128,7 +128,7 @@ def _viewport_update(engine, context, depsgraph):
     if kind == "scene":
         drop_meshes(state["meshes"], [bpy.data.objects[n] for n in geometry if n in bpy.data.objects])
         exported = export_scene(depsgraph, state["meshes"])
-        state["scene"], state["suns"] = exported.scene, exported.suns
+        state["scene"], state["suns"] = viewport.kept_unchanged(state["scene"], exported.scene), exported.suns
         suns = None
     elif kind == "suns":
         objects = depsgraph.scene.objects

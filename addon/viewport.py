@@ -5,7 +5,9 @@ A change restarts the rendering, and what is built again depends on the change. 
 (orbiting, zooming, resizing) or a moved Sun lamp only replaces the sensor and the suns of
 the loaded scene (Scene.update: meshes, media and the BVH stay); anything else exports the
 scene again, with the triangles of every mesh whose geometry did not change taken from a
-cache. Each restart shows a quick image at a quarter of the resolution, then adds one sample
+cache, and the entries that come out as they were are kept (kept_unchanged): where only
+suns and directional lights differ (a Sun's strength or colour), the loaded scene is still
+updated, not built again. Each restart shows a quick image at a quarter of the resolution, then adds one sample
 per pixel per pass at full resolution, up to the scene's samples. Cancelling (a change, or
 closing the viewport) stops the pass in flight within the renderer's cancel latency.
 """
@@ -33,6 +35,33 @@ def classify(updates):
                 continue
         kind = "scene"
     return kind, geometry
+
+
+def kept_unchanged(old, new):
+    """The scene dictionary ``new`` with each top-level entry equal to ``old``'s (values,
+    arrays by content) replaced by ``old``'s own object, which is how Scene.update tells
+    what changed."""
+    if old is None:
+        return new
+    return {k: old[k] if k in old and _same(old[k], v) else v for k, v in new.items()}
+
+
+def _same(a, b):
+    if a is b:
+        return True
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return (
+            isinstance(a, np.ndarray)
+            and isinstance(b, np.ndarray)
+            and a.shape == b.shape
+            and a.dtype == b.dtype
+            and np.array_equal(a, b)
+        )
+    return type(a) is type(b) and isinstance(a, (str, int, float, bool, type(None), np.generic)) and a == b
 
 
 def with_view(d, sensor, suns=None):

@@ -62,6 +62,31 @@ def test_changes_are_sorted_by_what_they_rebuild(blank):
     assert viewport.classify([update(sun, shading=True)]) == ("scene", set())  # its colour or strength
 
 
+def test_entries_that_export_the_same_are_kept():
+    # Scene.update tells a changed entry by identity: an entry equal by content to the
+    # previous export's is replaced by it; anything else (new values, another dtype, an
+    # object without value equality, such as a grid, unless it is the same) is not.
+    grid = object()
+    old = {
+        "mesh": {"type": "mesh", "positions": np.zeros((3, 3)), "indices": np.arange(3, dtype=np.uint32)},
+        "lamp": {"type": "point", "position": [0.0, 0.0, 1.0]},
+        "fog": {"type": "heterogeneous", "density": grid},
+    }
+    new = {
+        "mesh": {"type": "mesh", "positions": np.zeros((3, 3)), "indices": np.arange(3, dtype=np.uint32)},
+        "lamp": {"type": "point", "position": [0.0, 0.0, 2.0]},
+        "fog": {"type": "heterogeneous", "density": grid},
+        "new": {"type": "constant"},
+    }
+    kept = viewport.kept_unchanged(old, new)
+    assert kept["mesh"] is old["mesh"] and kept["fog"] is old["fog"]
+    assert kept["lamp"] is new["lamp"] and kept["new"] is new["new"]
+    new["mesh"]["indices"] = np.arange(3, dtype=np.int64)
+    new["fog"]["density"] = object()
+    kept = viewport.kept_unchanged(old, new)
+    assert kept["mesh"] is new["mesh"] and kept["fog"] is new["fog"]
+
+
 def wait_for(render, samples, after=0, timeout=60):
     """The first image of at least `samples` samples published after version `after`."""
     start = time.monotonic()
@@ -96,6 +121,16 @@ def test_progressive_passes_and_what_a_change_rebuilds(blank):
         # A Sun lamp turned: its direction replaced, still no rebuild.
         before = render.image()[0]
         render.show(viewport.with_view(exported.scene, sensor, {sun_key: (0.3, -1.0, 0.2)}))
+        wait_for(render, 1, before)
+        assert render.loads == 1
+        # A Sun's strength: the scene exported again, its other entries kept as they were
+        # (compared by content: these meshes are not from the cache), so still an update.
+        sun = next(o for o in blank.objects if o.type == "LIGHT" and o.data.type == "SUN")
+        sun.data.energy *= 2
+        again = viewport.kept_unchanged(exported.scene, export_scene(depsgraph()).scene)
+        assert [k for k in again if again[k] is not exported.scene[k]] == [sun_key]
+        before = render.image()[0]
+        render.show(viewport.with_view(again, sensor))
         wait_for(render, 1, before)
         assert render.loads == 1
         # Anything else: the scene exported again and built (waited for by the count of
