@@ -6,10 +6,11 @@ A change restarts the rendering, and what is built again depends on the change. 
 the loaded scene (Scene.update: meshes, media and the BVH stay); anything else exports the
 scene again, with the triangles of every mesh whose geometry did not change taken from a
 cache, and the entries that come out as they were are kept (kept_unchanged): where only
-suns and directional lights differ (a Sun's strength or colour), the loaded scene is still
-updated, not built again. Each restart shows a quick image at a quarter of the resolution, then adds one sample
-per pixel per pass at full resolution, up to the scene's samples. Cancelling (a change, or
-closing the viewport) stops the pass in flight within the renderer's cancel latency.
+point, sun and directional lights differ (a Point lamp moved, a Sun's strength or colour),
+the loaded scene is still updated, not built again. Each restart shows a quick image at a
+quarter of the resolution, then adds one sample per pixel per pass at full resolution, up
+to the scene's samples. Cancelling (a change, or closing the viewport) stops the pass in
+flight within the renderer's cancel latency.
 """
 
 import threading

@@ -44,7 +44,8 @@ class Scene:
 
     def update(self, d):
         """Move the scene to ``d``: the dictionary it was loaded from with its sensor or its
-        sun and directional emitters replaced (an animation's next frame). Only those are
+        point, sun and directional emitters replaced, each by one of its type (an
+        animation's next frame, a lamp edited in the viewport). Only those are
         built again; meshes, media, the BVH, and the sky map's levels while the sun stays
         within their elevations, are kept, and the image is the same bits as
         ``load_dict(d)``'s. Entries not replaced must be the same objects (as

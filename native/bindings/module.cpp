@@ -70,10 +70,11 @@ PlacedGrid placed(const GridPtr &g, const std::optional<DoubleArray> &world_to_g
     return {g, transform(*world_to_grid)};
 }
 
-// A new light, or (replace >= 0) that light replaced: an animation's next frame.
+// A new light, or (replace >= 0) that light replaced: an animation's next frame, a light
+// edited in the viewport.
 int add_or_replace(Scene &s, const Light &l, int replace, int hidden_from) {
     if (replace < 0) return s.add_light(l, uint8_t(hidden_from));
-    s.set_light(replace, l);
+    s.set_light(replace, l, uint8_t(hidden_from));
     return replace;
 }
 
@@ -545,10 +546,10 @@ PYBIND11_MODULE(_core, m) {
             py::arg("hidden_from") = 0)
         .def(
             "add_point_light",
-            [](Scene &s, Array3 p, Array3 intensity, int hidden_from) {
-                return s.add_light(PointLight{vec(p), vec(intensity)}, uint8_t(hidden_from));
+            [](Scene &s, Array3 p, Array3 intensity, int replace, int hidden_from) {
+                return add_or_replace(s, PointLight{vec(p), vec(intensity)}, replace, hidden_from);
             },
-            py::arg("position"), py::arg("intensity"), py::arg("hidden_from") = 0)
+            py::arg("position"), py::arg("intensity"), py::arg("replace") = -1, py::arg("hidden_from") = 0)
         .def(
             "add_directional_light",
             [](Scene &s, Array3 d, Array3 irradiance, int replace, int hidden_from) {

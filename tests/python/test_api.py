@@ -170,3 +170,37 @@ def test_memory_report_counts_what_the_scene_holds():
     assert memory["total"] == sum(v for k, v in memory.items() if k != "total")
     volpath.render(scene, spp=1)
     assert scene.last_render["memory"] == scene.memory
+
+
+def test_a_point_light_edited_in_place_gives_the_bits_of_a_fresh_load():
+    """Scene.update replaces a point light (the viewport's edited lamp) as it does a sun:
+    moved, brighter, or hidden from shadow rays, the scene renders the bits of the same
+    dictionary loaded afresh, without building its meshes again."""
+    import scenes as S
+    import volpath
+    from volpath.xml_reader import read_xml
+
+    d = read_xml(
+        S.scene(
+            S.camera(res=12, spp=2),
+            S.homogeneous("m", "1, 1, 1", "0.8"),
+            S.medium_sphere("m", radius=0.5),
+            S.floor(),
+            S.point_light(),
+        ),
+        "<test>",
+    )
+    key = next(k for k, v in d.items() if isinstance(v, dict) and v.get("type") == "point")
+    scene = volpath.load_dict(d)
+    before = volpath.render(scene, seed=2)
+    for change in (
+        {"position": np.array([1.0, 2.5, -1.0])},
+        {"intensity": np.array([30.0, 20.0, 10.0])},
+        {"hidden_from": "shadow"},
+    ):
+        d = dict(d, **{key: dict(d[key], **change)})
+        assert scene.update(d)
+        image = volpath.render(scene, seed=2)
+        assert not np.array_equal(image, before), change  # the change shows
+        assert np.array_equal(image, volpath.render(volpath.load_dict(d), seed=2)), change
+        before = image

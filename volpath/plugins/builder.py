@@ -38,7 +38,7 @@ class Builder:
             "camera": None,
             "warnings": [],
         }
-        self.lights = {}  # top-level key of a sun or directional emitter -> (native index, summary index)
+        self.lights = {}  # top-level key of a point, sun or directional emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []  # (native medium index, centre, top radius)
         self.loc = d.get("__loc__")
@@ -96,7 +96,7 @@ class Builder:
 
     def update(self, d):
         """Scene.update: the new sample count, or None where ``d`` changes more than the
-        sensor and the suns and directional lights."""
+        sensor and the point, sun and directional lights."""
         if set(d) != set(self.d):
             return None
         changed = [k for k in d if d[k] is not self.d[k]]

@@ -10,7 +10,7 @@ from .shapes import light_hidden_from
 
 
 def build(b, d, key=None):
-    """Adds the emitter, or replaces the sun or directional light that was built
+    """Adds the emitter, or replaces the point, directional or sun light that was built
     under the same top-level ``key`` (Scene.update)."""
     p = b.params(d, "emitter")
     n = b.native
@@ -23,7 +23,7 @@ def build(b, d, key=None):
         else:
             pos = p.transform()[:3, 3]
         intensity = p.rgb("intensity", 1.0, emitted=True)
-        n.add_point_light(tuple(pos), tuple(intensity), light_hidden_from(p))
+        index = n.add_point_light(tuple(pos), tuple(intensity), replace, light_hidden_from(p))
         info.update(position=pos.tolist(), intensity=intensity.tolist())
     elif p.type == "directional":
         if p.has("direction"):

@@ -91,7 +91,7 @@ struct Scene {
     int add_light(const Light &l, uint8_t hidden_from = 0);  // counts point_and_directional
     // Replaces light i by another of its kind (an animation's sun); build() then redoes
     // what depends on the lights, not the geometry.
-    void set_light(int i, const Light &l);
+    void set_light(int i, const Light &l, uint8_t hidden_from = 0);
     void build();
     bool geometry_built = false;  // the BVH is up to date with the shapes
 

@@ -44,9 +44,15 @@ int Scene::add_medium(const Medium &m) {
     return int(media.size()) - 1;
 }
 
-int Scene::add_light(const Light &l, uint8_t hidden_from) {
+namespace {
+void check_hidden_from(uint8_t hidden_from) {
     if (hidden_from & ~uint8_t(uint8_t(RayKind::Scatter) | uint8_t(RayKind::Shadow)))
         throw std::invalid_argument("a light can be hidden from scatter and shadow rays only");
+}
+}  // namespace
+
+int Scene::add_light(const Light &l, uint8_t hidden_from) {
+    check_hidden_from(hidden_from);
     lights.push_back(l);
     light_hidden_from.push_back(hidden_from);
     if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l)) ++point_and_directional;
@@ -64,10 +70,12 @@ int Scene::add_light(const Light &l, uint8_t hidden_from) {
     return int(lights.size()) - 1;
 }
 
-void Scene::set_light(int i, const Light &l) {
+void Scene::set_light(int i, const Light &l, uint8_t hidden_from) {
     if (lights.at(size_t(i)).index() != l.index())
         throw std::invalid_argument("a light can only be replaced by one of its kind");
+    check_hidden_from(hidden_from);
     lights[size_t(i)] = l;
+    light_hidden_from[size_t(i)] = hidden_from;
     built = false;
 }
 
