@@ -110,6 +110,8 @@ class _Reader:
                 self.fail(file, node, f"<{node.tag}> needs the attribute '{key}'")
             return None
         value = node.attrs[key]
+        if "$" not in value:
+            return value
 
         def substitute(m):
             name = m.group(1)
@@ -123,14 +125,14 @@ class _Reader:
     def floats(self, file, node, text, count, what):
         parts = text.replace(",", " ").split()
         try:
-            values = [float(p) for p in parts]
+            values = list(map(float, parts))
         except ValueError:
             self.fail(file, node, f"malformed number in {what} '{text}' (expected {count} numbers)")
         if len(values) == 1 and count == 3:
             values = values * 3
         if len(values) != count:
             self.fail(file, node, f"{what} '{text}': expected {count} numbers, got {len(values)}")
-        if not all(math.isfinite(v) for v in values):
+        if not all(map(math.isfinite, values)):
             self.fail(file, node, f"{what} '{text}': numbers must be finite")
         return values
 
@@ -214,6 +216,8 @@ class _Reader:
         return [self.floats(file, node, self.attr(file, node, k, False) or str(default), 1, node.tag)[0] for k in "xyz"]
 
     def transform_op(self, file, op, tag):
+        if tag == "matrix":
+            return np.array(self.floats(file, op, self.attr(file, op, "value"), 16, "matrix")).reshape(4, 4)
         t = np.eye(4)
         if tag == "translate":
             t[:3, 3] = self.xyz(file, op, 0.0)
@@ -248,8 +252,6 @@ class _Reader:
             left /= np.linalg.norm(left)
             new_up = np.cross(d, left)
             t[:3, 0], t[:3, 1], t[:3, 2], t[:3, 3] = left, new_up, d, origin
-        elif tag == "matrix":
-            t = np.array(self.floats(file, op, self.attr(file, op, "value"), 16, "matrix")).reshape(4, 4)
         return t
 
     # -- objects ---------------------------------------------------------------------
