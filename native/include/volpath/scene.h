@@ -89,9 +89,10 @@ struct Scene {
     int add_group() { return geometry.add_group(); }
     int add_instance(int group, const Transform &to_world, const Transform &to_local);
     int add_light(const Light &l, uint8_t hidden_from = 0);  // counts point_and_directional
-    // Replaces light i by another of its kind (an animation's sun); build() then redoes
-    // what depends on the lights, not the geometry.
-    void set_light(int i, const Light &l, uint8_t hidden_from = 0);
+    // Replaces light i, and the rays it is hidden from, by another of its kind (an
+    // animation's sun, a lamp edited in the viewport); build() then redoes what depends on
+    // the lights, not the geometry.
+    void set_light(int i, const Light &l, uint8_t hidden_from);
     void build();
     bool geometry_built = false;  // the BVH is up to date with the shapes
 
