@@ -10,7 +10,8 @@ which reads no OpenVDB, as a dense .vol grid. Each measurement runs in a fresh p
 "a sample" a SPP-spp render's time over its samples (Cycles: less a second 1-spp render's,
 its per-render scene synchronisation, over SPP - 1), "peak" the process's own peak resident memory
 (VmHWM) above what it held after its imports. Volpath reads a .vdb in a short-lived child
-process (docs/scene-format.md); its peak is reported beside, as "reader".
+process (docs/scene-format.md); its peak is reported beside, as "reader" (an upper bound:
+its ru_maxrss counts what it inherits from its parent).
 
     .venv/bin/python bench/cloud_scaling.py [--sizes 64 128 256 512 1024] [--append bench/RESULTS.md]
 """
