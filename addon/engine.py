@@ -166,7 +166,7 @@ def _viewport_draw(engine, context, depsgraph):
         sensor = _view_sensor(context, depsgraph)
     except ValueError:  # an orthographic view
         return
-    if not _same_sensor(sensor, state["sensor"]):
+    if not viewport.same(sensor, state["sensor"]):
         state["sensor"] = sensor
         state["render"].show(viewport.with_view(state["scene"], sensor))
     _, rgba, samples = state["render"].image()
@@ -184,17 +184,6 @@ def _viewport_draw(engine, context, depsgraph):
     engine.update_stats("", f"Volpath | {error}" if error else f"Volpath | {samples} spp")
     if samples < state["render"].max_samples and not error:
         engine.tag_redraw()  # draw again while passes come in
-
-
-def _same_sensor(a, b):
-    return (
-        b is not None
-        and a["film"] == b["film"]
-        and a["fov"] == b["fov"]
-        and np.array_equal(a["to_world"], b["to_world"])
-        and a.get("shift_x") == b.get("shift_x")
-        and a.get("shift_y") == b.get("shift_y")
-    )
 
 
 def _passes(layer):

@@ -44,16 +44,19 @@ def kept_unchanged(old, new):
     what changed."""
     if old is None:
         return new
-    return {k: old[k] if k in old and _same(old[k], v) else v for k, v in new.items()}
+    return {k: old[k] if k in old and same(old[k], v) else v for k, v in new.items()}
 
 
-def _same(a, b):
+def same(a, b):
+    """Whether two pieces of a scene dictionary are equal: dictionaries and lists item by
+    item, arrays by content, numbers and strings by value, anything else only if it is the
+    same object."""
     if a is b:
         return True
     if isinstance(a, dict):
-        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+        return isinstance(b, dict) and a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
     if isinstance(a, (list, tuple)):
-        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+        return type(a) is type(b) and len(a) == len(b) and all(map(same, a, b))
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return (
             isinstance(a, np.ndarray)
