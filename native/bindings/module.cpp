@@ -471,12 +471,21 @@ PYBIND11_MODULE(_core, m) {
             py::arg("emitter_spread") = kPi, py::arg("emitter_hidden_from") = 0, py::arg("group") = -1)
         .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
         .def(
-            "add_instance",
-            [](Scene &s, int group, const DoubleArray &to_world) {
-                const Transform t = transform(to_world);
-                return s.add_instance(group, t, t.inverse());
+            "add_instances",
+            [](Scene &s, const py::array_t<int, py::array::c_style | py::array::forcecast> &groups,
+               const DoubleArray &to_world) {
+                if (groups.ndim() != 1 || to_world.ndim() != 3 || to_world.shape(0) != groups.shape(0) ||
+                    to_world.shape(1) != 4 || to_world.shape(2) != 4)
+                    throw std::invalid_argument("expected n groups and an (n, 4, 4) array of transforms");
+                for (py::ssize_t i = 0; i < groups.shape(0); ++i) {
+                    Transform t;
+                    for (int r = 0; r < 4; ++r)
+                        for (int c = 0; c < 4; ++c) t.m[r][c] = to_world.at(i, r, c);
+                    s.add_instance(groups.at(i), t, t.inverse());
+                }
             },
-            py::arg("group"), py::arg("to_world"))
+            "Instances of shape groups, one a transform (n, 4, 4): one call for a field of them.", py::arg("groups"),
+            py::arg("to_world"))
         .def(
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,

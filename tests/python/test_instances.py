@@ -157,3 +157,14 @@ def test_what_a_group_may_not_hold_is_refused_with_its_line(body, message):
     with pytest.raises(volpath.SceneError, match=message) as e:
         volpath.load_string(S.scene(S.camera(res=4), body))
     assert re.match(r"<string>:\d+: ", str(e.value)), "the message names the line"
+
+
+def test_a_field_of_instances_names_the_one_whose_transform_fails():
+    """Instances reach the core in one call after their transforms are checked together:
+    the error still names the line of the one that fails."""
+    good = INSTANCE.format('<ref id="g"/><transform name="to_world"><translate x="1"/></transform>')
+    bad = INSTANCE.format('<ref id="g"/><transform name="to_world"><scale y="0"/></transform>')
+    xml = S.scene(S.camera(res=4), GROUP.format(CUBE) + "\n" + good + "\n" + bad + "\n" + good)
+    line = next(i for i, text in enumerate(xml.splitlines(), 1) if 'scale y="0"' in text)
+    with pytest.raises(volpath.SceneError, match=f"^<string>:{line}: .*singular"):
+        volpath.load_string(xml)

@@ -27,6 +27,7 @@ class Builder:
         self.bsdfs = {}
         self.textures = {}  # id(dict) -> native index
         self.groups = {}  # id(dict) of a shapegroup -> native index
+        self.instances = []  # (group, to_world, Params) waiting for shapes.add_instances
         self.building = set()
         self.summary = {
             "shapes": [],
@@ -133,12 +134,15 @@ class Builder:
     def _build(self):
         scene = self.params(self.d, "scene")
         integrator, sensor = None, None
-        items = [(k, v) for k, v in self.d.items() if not k.startswith("__") and k != "type"]
-        for key, v in items:
+        items = []  # (key, dict, kind)
+        for key, v in self.d.items():
+            if key.startswith("__") or key == "type":
+                continue
             scene.read.add(key)
             if not isinstance(v, dict):
                 raise SceneError(f"{where(self.d.get('__loc__'))}scene: unexpected value '{key}'")
             kind = kind_of(v)
+            items.append((key, v, kind))
             if kind == "integrator":
                 integrator = v
             elif kind == "sensor":
@@ -147,11 +151,10 @@ class Builder:
                 sensor = v
         # Declared media first: an atmosphere brings its own geometry, and a camera inside
         # it is inside it without saying so.
-        for _, v in items:
-            if kind_of(v) == "medium":
+        for _, v, kind in items:
+            if kind == "medium":
                 media.build(self, v)
-        for key, v in items:
-            kind = kind_of(v)
+        for key, v, kind in items:
             if kind == "shape":
                 shapes.build(self, v)
             elif kind == "emitter":
@@ -160,11 +163,12 @@ class Builder:
                 pass  # built where referenced
             else:
                 raise SceneError(f"{where(v.get('__loc__'))}unknown plugin type '{v.get('type')}'")
+        shapes.add_instances(self)
         settings = integrators.build(self, integrator)
         settings["spp"] = self.spp = sensors.build(self, sensor)
         # Declared BSDFs that nothing references are still checked.
-        for _, v in items:
-            if kind_of(v) == "bsdf":
+        for _, v, kind in items:
+            if kind == "bsdf":
                 self.bsdf(v)
         scene.check()
         self.native.build()

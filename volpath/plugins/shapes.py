@@ -167,9 +167,9 @@ def shape_group(b, d):
 
 
 def instance(b, d):
-    """An instance: a shapegroup, named by a reference, placed by ``to_world``."""
+    """An instance: a shapegroup, named by a reference, placed by ``to_world``. It waits in
+    ``b.instances`` for add_instances, which hands a field of them to the core at once."""
     p = b.params(d, "shape")
-    to_world = p.transform()
     groups = []
     for key, v in d.items():
         if key.startswith("__") or key == "to_world" or not isinstance(v, dict):
@@ -181,10 +181,27 @@ def instance(b, d):
         p.read.add(key)
     if len(groups) != 1:
         raise p.error(f"an instance names exactly one shapegroup (found {len(groups)})")
-    group = shape_group(b, groups[0])
-    b.native.add_instance(group, to_world)
+    b.instances.append((shape_group(b, groups[0]), p.raw("to_world"), p))
     b.summary["instances"] += 1
     p.check()
+
+
+def add_instances(b):
+    """The waiting instances to the core in one call, their transforms checked all at once
+    (where one fails, Params.transform names it and words the error)."""
+    if not b.instances:
+        return
+    groups, to_world, params = zip(*b.instances)
+    b.instances = []
+    try:
+        m = np.array([np.eye(4) if t is None else t for t in to_world], dtype=np.float64)
+        valid = m.shape == (len(groups), 4, 4) and np.isfinite(m).all()
+        valid = valid and (np.abs(np.linalg.det(m[:, :3, :3])) >= 1e-300).all()
+    except (TypeError, ValueError):
+        valid = False
+    if not valid:
+        m = np.array([p.transform() for p in params])
+    b.native.add_instances(np.array(groups, dtype=np.int32), m)
 
 
 def mesh_arrays(p):
