@@ -27,7 +27,7 @@ class Builder:
         self.bsdfs = {}
         self.textures = {}  # id(dict) -> native index
         self.groups = {}  # id(dict) of a shapegroup -> native index
-        self.instances = []  # (group, to_world, Params) waiting for shapes.add_instances
+        self.instances = []  # (group, instance dict) waiting for shapes.add_instances
         self.building = set()
         self.summary = {
             "shapes": [],

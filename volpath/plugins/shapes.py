@@ -181,9 +181,10 @@ def instance(b, d):
         p.read.add(key)
     if len(groups) != 1:
         raise p.error(f"an instance names exactly one shapegroup (found {len(groups)})")
-    b.instances.append((shape_group(b, groups[0]), p.raw("to_world"), p))
-    b.summary["instances"] += 1
+    p.raw("to_world")
     p.check()
+    b.instances.append((shape_group(b, groups[0]), d))
+    b.summary["instances"] += 1
 
 
 def add_instances(b):
@@ -191,16 +192,17 @@ def add_instances(b):
     (where one fails, Params.transform names it and words the error)."""
     if not b.instances:
         return
-    groups, to_world, params = zip(*b.instances)
+    groups, dicts = zip(*b.instances)
     b.instances = []
     try:
-        m = np.array([np.eye(4) if t is None else t for t in to_world], dtype=np.float64)
+        identity = np.eye(4)
+        m = np.array([d.get("to_world", identity) for d in dicts], dtype=np.float64)
         valid = m.shape == (len(groups), 4, 4) and np.isfinite(m).all()
         valid = valid and (np.abs(np.linalg.det(m[:, :3, :3])) >= 1e-300).all()
     except (TypeError, ValueError):
         valid = False
     if not valid:
-        m = np.array([p.transform() for p in params])
+        m = np.array([b.params(d, "shape").transform() for d in dicts])
     b.native.add_instances(np.array(groups, dtype=np.int32), m)
 
 
