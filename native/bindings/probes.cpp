@@ -199,6 +199,25 @@ void bind_probes(py::module_ &m) {
             return py::make_tuple(t, shape, n);
         },
         py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none());
+    // Per ray: whether it hits anything before t_max (Geometry::occluded, the shadow rays' query).
+    m.def(
+        "occluded",
+        [](Scene &s, const DoubleArray &o, const DoubleArray &d, const DoubleArray &t_max) {
+            if (!s.built) s.build();
+            const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
+            if (os.size() != ds.size() || t_max.ndim() != 1 || size_t(t_max.shape(0)) != os.size())
+                throw std::invalid_argument("need as many origins, directions and t_max");
+            py::array_t<bool> out(os.size());
+            auto oo = out.mutable_unchecked<1>();
+            for (size_t i = 0; i < os.size(); ++i)
+                oo(i) = s.geometry.occluded(Ray{os[i], normalize(ds[i]), 0, t_max.at(i)});
+            return out;
+        },
+        py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("t_max"));
+    m.def("shadows_stop_at_any_hit", [](Scene &s) {
+        s.build();
+        return s.shadows_stop_at_any_hit;
+    });
     // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
     // Per shape: whether it is a null medium boundary that a surface may lie on.
     m.def("boundary_with_contact", [](Scene &s) {

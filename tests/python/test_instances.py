@@ -168,3 +168,31 @@ def test_a_field_of_instances_names_the_one_whose_transform_fails():
     line = next(i for i, text in enumerate(xml.splitlines(), 1) if 'scale y="0"' in text)
     with pytest.raises(volpath.SceneError, match=f"^<string>:{line}: .*singular"):
         volpath.load_string(xml)
+
+
+def test_occlusion_queries_agree_with_the_closest_hit():
+    """Geometry::occluded, the shadow rays' any-hit query, stops at the first hit it finds
+    (in the scene's BVH or an instance's): it reports a hit before t_max exactly where the
+    closest hit lies before t_max, for t_max just short of and just past that hit."""
+    instanced, flat = scene_pair([STRETCHED, MIRRORED, placed([0.5, 0.5, 0.5], [1.5, 1.0, 0.5])])
+    o, d = random_rays(4000, 2)
+    for scene in (instanced, flat):
+        t, _, _ = _core.intersect(scene.native, o, d)
+        hit = np.isfinite(t)
+        assert hit.sum() > 500 and (~hit).sum() > 100  # both kinds of ray
+        far = np.where(hit, t, 1e3)
+        assert np.array_equal(_core.occluded(scene.native, o, d, np.full(len(t), np.inf)), hit)
+        assert np.array_equal(_core.occluded(scene.native, o, d, far * (1 + 1e-9)), hit)
+        assert not _core.occluded(scene.native, o, d, far * (1 - 1e-9)).any()
+
+
+def test_shadow_rays_decide_alike_by_any_hit_and_closest_hit():
+    """Where every shape stops shadow rays, they stop at the first hit found; one shape that
+    lets them through (out of every ray's way) sends them back to the closest hit. The
+    image is the same bit for bit: both decide each shadow ray alike."""
+    maps = [STRETCHED, MIRRORED, placed([0.5, 0.5, 0.5], [1.5, 1.0, 0.5])]
+    d = scene_pair(maps, res=16)[0]._builder.d
+    aside = {"type": "rectangle", "to_world": placed([0.1, 0.1, 1.0], [0.0, 0.0, -50.0]), "hidden_from": "shadow"}
+    any_hit, closest = volpath.load_dict(d), volpath.load_dict(dict(d, aside=aside))
+    assert _core.shadows_stop_at_any_hit(any_hit.native) and not _core.shadows_stop_at_any_hit(closest.native)
+    np.testing.assert_array_equal(volpath.render(any_hit, seed=4), volpath.render(closest, seed=4))

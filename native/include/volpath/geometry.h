@@ -98,6 +98,9 @@ public:
     bool intersect(const Ray &ray, Intersection &its) const;
     // The closest hit on any shape but `skip`.
     bool intersect_except(const Ray &ray, int skip, Intersection &its) const;
+    // Whether the ray hits anything between t_min and t_max: the first hit found ends the
+    // traversal.
+    bool occluded(const Ray &ray) const;
     // Texture coordinates at a hit, worked out only where a texture or a layer asks for
     // them: a mesh's, interpolated (its barycentrics where it has none, as in Mitsuba); a
     // sphere's longitude / (2 pi) and polar angle / pi; a box face's as on Mitsuba's cube.
@@ -197,12 +200,13 @@ private:
     bool intersect_primitive(const Bvh &bvh, uint32_t i, const Ray &ray, const PreparedRay &prepared, Real t_max,
                              Hit &hit) const;
     // Calls leaf(i) for each primitive of `bvh` in a node the ray enters before t_max (which
-    // leaf may lower), nearer nodes first.
+    // leaf may lower), nearer nodes first, until leaf returns true.
     template <typename Leaf>
     static void walk(const Bvh &bvh, const Ray &ray, const Vec3 &inv_d, const Real &t_max, Leaf &&leaf);
-    // The BVH traversal, testing only the primitives of shapes `accept(shape)` takes.
+    // The BVH traversal, testing only the primitives of shapes `accept(shape)` takes: the
+    // closest hit before closest.t, or with `any` the first one found.
     template <typename Accept>
-    bool traverse(const Ray &ray, Intersection &its, Accept &&accept) const;
+    bool traverse(const Ray &ray, Hit &closest, bool any, Accept &&accept) const;
     // The intersection in a group's space mapped into the world's (by its.instance).
     void to_world(Intersection &its) const;
     // The hit point in its shape's own space (a group's, else the world's).

@@ -142,6 +142,9 @@ struct Scene {
     bool has_hittable_emitters() const { return lights.size() > point_and_directional; }
     size_t point_and_directional = 0;
     bool has_environment = false;  // an EnvironmentLight among the lights; set by build()
+    // Whether every shape stops shadow rays outright (none is null, masked or hidden from
+    // them): a shadow ray then only asks whether it hits anything. Set by build().
+    bool shadows_stop_at_any_hit = false;
     // The first sun or directional light, which guides free flights in the air; set by build().
     std::optional<SunGuide> sun;
     const SunGuide *sun_guide() const { return sun ? &*sun : nullptr; }

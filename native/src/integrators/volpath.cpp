@@ -183,7 +183,8 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     for (int crossing = 0; !unshadowed; ++crossing) {
         if (crossing > kMaxNullCrossings) return Spectrum(0.0);
         Intersection its;
-        const bool hit = scene.intersect(ray, its, current);
+        if (scene.shadows_stop_at_any_hit && scene.geometry.occluded(ray)) return Spectrum(0.0);
+        const bool hit = !scene.shadows_stop_at_any_hit && scene.intersect(ray, its, current);
         // Occluded: nothing to estimate (and no tracking to pay for) on the way there. A
         // mask passes the ray with a probability that the path through it would have had
         // to draw: both the transmittance and the unidirectional pdf take it.

@@ -656,11 +656,22 @@ void Geometry::to_world(Intersection &its) const {
 }
 
 bool Geometry::intersect(const Ray &ray, Intersection &its) const {
-    return traverse(ray, its, [](int) { return true; });
+    Hit closest{ray.t_max};
+    if (!traverse(ray, closest, false, [](int) { return true; })) return false;
+    finish(closest, ray, its);
+    return true;
 }
 
 bool Geometry::intersect_except(const Ray &ray, int skip, Intersection &its) const {
-    return traverse(ray, its, [skip](int shape) { return shape != skip; });
+    Hit closest{ray.t_max};
+    if (!traverse(ray, closest, false, [skip](int shape) { return shape != skip; })) return false;
+    finish(closest, ray, its);
+    return true;
+}
+
+bool Geometry::occluded(const Ray &ray) const {
+    Hit any{ray.t_max};
+    return traverse(ray, any, true, [](int) { return true; });
 }
 
 template <typename Leaf>
@@ -683,7 +694,8 @@ void Geometry::walk(const Bvh &bvh, const Ray &ray, const Vec3 &inv_d, const Rea
                            (1 + 4e-16);
         if (t_near <= t_far) {
             if (node.count > 0) {
-                for (uint32_t i = 0; i < node.count; ++i) leaf(node.first + i);
+                for (uint32_t i = 0; i < node.count; ++i)
+                    if (leaf(node.first + i)) return;
             } else {
                 // Near child first.
                 if (negative[node.axis]) {
@@ -702,16 +714,15 @@ void Geometry::walk(const Bvh &bvh, const Ray &ray, const Vec3 &inv_d, const Rea
 }
 
 template <typename Accept>
-bool Geometry::traverse(const Ray &ray, Intersection &its, Accept &&accept) const {
+bool Geometry::traverse(const Ray &ray, Hit &closest, bool any, Accept &&accept) const {
     if (top_.nodes.empty()) return false;
     const PreparedRay prepared(ray.d);
-    Hit closest{ray.t_max};
     bool hit = false;
     walk(top_, ray, prepared.inv_d, closest.t, [&](uint32_t i) {
         const Primitive &prim = top_.prims[i];
         if (top_.kind[i] != ShapeGeometry::Kind::Instance) {
             if (accept(prim.shape)) hit |= intersect_primitive(top_, i, ray, prepared, closest.t, closest);
-            return;
+            return any && hit;
         }
         // The ray in the group's space: the same t, up to a direction no longer unit.
         const Instance &inst = instances[prim.index];
@@ -724,9 +735,10 @@ bool Geometry::traverse(const Ray &ray, Intersection &its, Accept &&accept) cons
                 closest.instance = prim.index;
                 hit = true;
             }
+            return any && hit;
         });
+        return any && hit;
     });
-    if (hit) finish(closest, ray, its);
     return hit;
 }
 

@@ -186,6 +186,10 @@ void Scene::build() {
             for (const Bounds &b : surface_bounds)
                 boundary_with_contact[size_t(i)] |= geometry.may_touch_surface(i, b, eps);
     }
+    shadows_stop_at_any_hit = std::none_of(shapes.begin(), shapes.end(), [&](const ShapeInfo &s) {
+        const BSDF &b = bsdfs[size_t(s.bsdf)];
+        return is_null(b) || is_layered(b) || s.hides_from(RayKind::Shadow);
+    });
     const int enclosure = geometry.enclosure();
     enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
     for (Light &l : lights) prepare_light(l, geometry);
