@@ -77,8 +77,8 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/sunrise_quality.py --append bench/RESULTS.md
 	$(PY) bench/sparse_cloud.py --append bench/RESULTS.md
 	$(PY) bench/mesh_loading.py --sizes 100000 1000000 10000000 --append bench/RESULTS.md --plot docs/mesh_loading.png
-	$(PY) bench/instance_scaling.py --append bench/RESULTS.md
-	$(PY) bench/cloud_scaling.py --append bench/RESULTS.md
+	$(PY) bench/instance_scaling.py --append bench/RESULTS.md --plot docs/instance_scaling.png
+	$(PY) bench/cloud_scaling.py --append bench/RESULTS.md --plot docs/cloud_scaling.png
 	$(PY) bench/spectral_sky.py --append bench/RESULTS.md
 	$(PY) bench/spectral_sunrise.py --append bench/RESULTS.md
 

@@ -14,6 +14,7 @@ process (docs/scene-format.md); its peak is reported beside, as "reader" (an upp
 its ru_maxrss counts what it inherits from its parent).
 
     .venv/bin/python bench/cloud_scaling.py [--sizes 64 128 256 512 1024] [--append bench/RESULTS.md]
+        [--plot docs/cloud_scaling.png]
 """
 
 import argparse
@@ -24,7 +25,7 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 from make_grids import cumulus_field, write_vdb  # noqa: E402  (bench/)
-from mesh_loading import PEAK_MEMORY, measure  # noqa: E402
+from mesh_loading import LOAD, PEAK, PEAK_MEMORY, PER_SAMPLE, RENDERERS, measure, plot  # noqa: E402
 from publish import publish  # noqa: E402
 
 SPP = 16
@@ -132,8 +133,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128, 256, 512, 1024])
     ap.add_argument("--append")
+    ap.add_argument("--plot", help="a PNG of load, time a sample and peak against the grid's resolution")
     args = ap.parse_args()
-    rows = []
+    rows, results = [], {}
     for size in args.sizes:
         with tempfile.TemporaryDirectory(prefix="volpath-clouds-") as d:
             density = cumulus_field(size)
@@ -146,6 +148,8 @@ def main():
             v = measure("volpath", os.path.join(d, "vdb.xml"), CHILD)
             m = measure("mitsuba", os.path.join(d, "vol.xml"), CHILD)
             c = measure("cycles", os.path.join(d, "vdb.xml"), CHILD)
+        for r, result in zip(RENDERERS, (v, m, c)):
+            results.setdefault((r, ""), []).append((size, result))
         best = {k: min(m[k], c[k]) for k in ("load", "per_sample", "peak")}
         rows.append(
             f"| {size}^3 | "
@@ -157,6 +161,8 @@ def main():
             + f" | **{v['peak'] / best['peak']:.2f}x** | {v['reader'] / 2**20:.0f} MB |"
         )
         print(rows[-1], flush=True)
+    if args.plot:
+        plot(results, args.plot, "voxels along each axis", (LOAD, PER_SAMPLE, PEAK))
     section = (
         "\n## A sparse cloud from 64^3 to 1024^3 (issue #37; `bench/cloud_scaling.py`)\n\n"
         f"The accuracy study's cumulus field (about 4 % of the voxels active) at each resolution, {RES}x{RES}, "

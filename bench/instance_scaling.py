@@ -8,6 +8,7 @@ the 16-spp render less the 1-spp one, over 15), "peak" the process's own peak re
 what it held after importing the renderer. All use all the machine's cores for the render.
 
     .venv/bin/python bench/instance_scaling.py [--counts 1000 100000] [--runs 3] [--append bench/RESULTS.md]
+        [--plot docs/instance_scaling.png]
 """
 
 import argparse
@@ -19,7 +20,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-from mesh_loading import PEAK_MEMORY, bumpy_sphere, measure  # noqa: E402  (bench/)
+from mesh_loading import LOAD, PEAK, PEAK_MEMORY, PER_SAMPLE, RENDERERS, bumpy_sphere, measure, plot  # noqa: E402  (bench/)
 from publish import publish  # noqa: E402
 
 SPP = 16
@@ -178,15 +179,15 @@ def write_scene(path, count):
     np.save(path[:-4] + ".npy", field(count, np.random.default_rng(1))[1] if count else np.zeros((0, 4, 4)))
 
 
-def best_of(renderers, scene, runs):
-    """Each renderer's figures, each the least over `runs` fresh processes taken in turn:
-    the machine's noise only adds time, and a ratio to the mesh alone's short render takes
-    all of that render's noise."""
-    results = {r: [] for r in renderers}
+def best_of(jobs, runs):
+    """Each (renderer, scene) job's figures, each the least over `runs` fresh processes, the
+    jobs taken in turn: the machine's noise only adds time, and it drifts over minutes, so a
+    ratio is taken between jobs run side by side."""
+    results = {job: [] for job in jobs}
     for _ in range(runs):
-        for r in renderers:
-            results[r].append(measure(r, scene, CHILD))
-    return [{k: min(x[k] for x in results[r]) for k in results[r][0]} for r in renderers]
+        for renderer, scene in jobs:
+            results[renderer, scene].append(measure(renderer, scene, CHILD))
+    return [{k: min(x[k] for x in results[job]) for k in results[job][0]} for job in jobs]
 
 
 def main():
@@ -196,17 +197,22 @@ def main():
     ap.add_argument("--counts", type=int, nargs="+", default=[1000, 100_000])
     ap.add_argument("--runs", type=int, default=3, help="fresh processes per measurement (the best is kept)")
     ap.add_argument("--append")
+    ap.add_argument("--plot", help="a PNG of load, time a sample and peak against the triangles instanced")
     args = ap.parse_args()
-    rows = []
+    rows, results = [], {}
     with tempfile.TemporaryDirectory(prefix="volpath-instances-") as d:
         positions, triangles = bumpy_sphere(100_000)
         write_ply(os.path.join(d, "mesh.ply"), positions, triangles)
-        single = None
+        alone = os.path.join(d, "field0.xml")
         for count in [0, *args.counts]:
             scene = os.path.join(d, f"field{count}.xml")
             write_scene(scene, count)
-            v, m, c = best_of(("volpath", "mitsuba", "cycles"), scene, args.runs)
-            single = single or v["per_sample"]
+            # Volpath's mesh alone again beside each field, for the ratio of their times.
+            jobs = [(r, scene) for r in RENDERERS] + ([("volpath", alone)] if count else [])
+            v, m, c, *beside = best_of(jobs, args.runs)
+            for r, result in zip(RENDERERS, (v, m, c)):
+                results.setdefault((r, ""), []).append(((count or 1) * len(triangles), result))
+            single = (beside or [v])[0]["per_sample"]
             rows.append(
                 f"| {count or 'the mesh alone'} | {count * len(triangles) or len(triangles):.3g} | "
                 + " | ".join(f"{r['load']:.2f} s" for r in (v, m, c))
@@ -217,6 +223,8 @@ def main():
                 + " |"
             )
             print(rows[-1], flush=True)
+    if args.plot:
+        plot(results, args.plot, "triangles (instanced)", (LOAD, PER_SAMPLE, PEAK))
     section = (
         "\n## Instancing at scale (issue #37; `bench/instance_scaling.py`)\n\n"
         "A bumpy sphere of 0.1 M triangles alone, and instanced in a field (each turned and scaled) on a "
@@ -224,7 +232,8 @@ def main():
         "renderers in turn, same run. Mitsuba "
         "3.9.1 scalar_rgb with shapegroup + instance; Cycles 5.0 with geometry-node instances on points (its "
         "load includes a 1-spp render, which builds its BVH; its time a sample is the 16-spp render's less the "
-        "1-spp one's). \"vs alone\": Volpath's time a sample over its time with the mesh alone (target: at most "
+        "1-spp one's). \"vs alone\": Volpath's time a sample over its time with the mesh alone, measured again "
+        "in turn with the field's (target: at most "
         "3x at 100 000 instances, within 2 GB).\n\n"
         "| instances | triangles | Volpath load | Mitsuba load | Cycles load | Volpath a sample | Mitsuba a sample "
         "| Cycles a sample | vs alone | Volpath peak | Mitsuba peak | Cycles peak |\n"

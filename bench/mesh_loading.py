@@ -113,21 +113,28 @@ def measure(renderer, scene, child=CHILD):
 RENDERERS = ("volpath", "mitsuba", "cycles")
 
 
-def plot(results, path):
-    """Load time and peak memory against triangles, log-log, one line per renderer and file."""
+# Figures to plot: a result's key, its axis label, a factor.
+LOAD, PEAK = ("load", "load (s)", 1), ("peak", "peak (MB)", 2**-20)
+PER_SAMPLE = ("per_sample", "time a sample (s)", 1)
+
+
+def plot(results, path, xlabel, panels=(LOAD, PEAK)):
+    """Each panel's figure against size, log-log: one line per renderer and variant, from
+    {(renderer, variant): [(size, result), ...]}."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.6))
-    for (renderer, kind), points in sorted(results.items()):
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.5 * len(panels), 3.6))
+    variants = sorted({variant for _, variant in results})
+    for (renderer, variant), points in sorted(results.items()):
         sizes = [n for n, _ in points]
-        style = {"color": f"C{RENDERERS.index(renderer)}", "linestyle": "-" if kind == "ply" else "--", "marker": "o"}
-        axes[0].loglog(sizes, [r["load"] for _, r in points], label=f"{renderer} {kind.upper()}", **style)
-        axes[1].loglog(sizes, [r["peak"] / 2**20 for _, r in points], **style)
-    axes[0].set(xlabel="triangles", ylabel="load (s)", title="load time")
-    axes[1].set(xlabel="triangles", ylabel="peak (MB)", title="peak memory")
+        dashed = variant != variants[0]
+        style = {"color": f"C{RENDERERS.index(renderer)}", "linestyle": "--" if dashed else "-", "marker": "o"}
+        for ax, (key, ylabel, factor) in zip(axes, panels):
+            ax.loglog(sizes, [r[key] * factor for _, r in points], label=f"{renderer} {variant}".strip(), **style)
+            ax.set(xlabel=xlabel, ylabel=ylabel)
     axes[0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -153,7 +160,7 @@ def main():
                     f.write(SCENE.format(kind=kind, file=f"mesh.{kind}"))
                 v, m, c = (measure(r, scene) for r in RENDERERS)
                 for r, result in zip(RENDERERS, (v, m, c)):
-                    results.setdefault((r, kind), []).append((len(triangles), result))
+                    results.setdefault((r, kind.upper()), []).append((len(triangles), result))
                 best_load, best_peak = min(m["load"], c["load"]), min(m["peak"], c["peak"])
                 rows.append(
                     f"| {len(triangles) / 1e6:.2f} M | {kind.upper()} | {v['load']:.2f} s | {m['load']:.2f} s | "
@@ -162,7 +169,7 @@ def main():
                 )
                 print(rows[-1], flush=True)
     if args.plot:
-        plot(results, args.plot)
+        plot(results, args.plot, "triangles")
     section = (
         "\n## Loading a large mesh (issue #37; `bench/mesh_loading.py`)\n\n"
         "One bumpy sphere, 8x8 pixels, each measurement in a fresh process: loading the file to a "
