@@ -72,6 +72,23 @@ def light_visibility(scene):
     set_background(scene, (0.05, 0.05, 0.05))
 
 
+def light_lobes(scene):
+    """An area light hidden from glossy rays (it lights the diffuse floor and the chalk
+    sphere, and puts no highlight on the gold one) and a point light hidden from diffuse
+    rays (it puts a highlight on the gold sphere and lights nothing else)."""
+    _floor(), _view(scene)
+    for x, m in (
+        (-1, material("gold", Base_Color=(0.9, 0.6, 0.2, 1), Metallic=1.0, Roughness=0.3)),
+        (1, material("chalk", Base_Color=(0.8, 0.8, 0.8, 1), Specular_IOR_Level=0.0)),
+    ):
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(x, 0, 0.7), segments=64, ring_count=32)
+        bpy.ops.object.shade_smooth()
+        bpy.context.object.data.materials.append(m)
+    _light("AREA", 200, location=(0, -1, 3), size=1.0).visible_glossy = False
+    _light("POINT", 300, location=(-2.5, -2, 2.5), shadow_soft_size=0).visible_diffuse = False
+    set_background(scene, (0.05, 0.05, 0.05))
+
+
 def emission_shader(scene):
     _floor(), _view(scene)
     bpy.ops.mesh.primitive_plane_add(size=1.5, location=(0, 0.5, 1.5), rotation=(math.pi, 0, 0))
@@ -191,6 +208,7 @@ SCENES = {
     "area lights": area_lights,
     "area light spread": area_light_spread,
     "light visibility": light_visibility,
+    "light lobes": light_lobes,
     "emission shader": emission_shader,
     "glass and metal": glass_and_metal,
     "textured principled": textured_principled,

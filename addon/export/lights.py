@@ -44,15 +44,11 @@ def export(obj, matrix_world, report):
     color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
     off = hidden_kinds(obj)
-    unsupported = [k for k in off if k in ("diffuse", "glossy", "transmission")]
-    if unsupported:
-        # A light hidden from diffuse rays lights no diffuse surface in Cycles (its NEE too):
-        # that needs the BSDFs' lobes apart, which Volpath's NEE does not have.
-        kinds = ", ".join(unsupported)
-        report.warn(f"light '{name}': ray visibility off for {kinds} is not supported (visible to all)")
+    # Diffuse, Glossy, Transmission off: it lights surfaces through their other lobes only.
     # Volume Scatter off: it lights no medium. Cast Shadow off: it casts none (Cycles reads
     # the light's own switch, not the object's Shadow visibility).
-    kinds = (["scatter"] if "scatter" in off else []) + ([] if light.use_shadow else ["shadow"])
+    kinds = [k for k in off if k in ("diffuse", "glossy", "transmission", "scatter")]
+    kinds += [] if light.use_shadow else ["shadow"]
     hidden = {"hidden_from": ", ".join(kinds)} if kinds else {}
     if light.type == "POINT":
         if light.shadow_soft_size > 0:

@@ -399,8 +399,6 @@ def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(
     exported = export_scene(depsgraph())
     assert exported.scene["Cube"]["hidden_from"] == "camera, diffuse, shadow"
     assert exported.scene["Point"]["hidden_from"] == "scatter, shadow"
-    assert "hidden_from" not in exported.scene["Area"]["emitter"]
-    warnings = exported.warnings
-    assert not any("'Cube'" in w or "'Point'" in w for w in warnings), warnings
-    assert any("light 'Area': ray visibility off for glossy is not supported" in w for w in warnings), warnings
-    volpath.load_dict(exported.scene)  # the loader takes a light's scatter and shadow visibility
+    assert exported.scene["Area"]["emitter"]["hidden_from"] == "glossy"
+    assert not any("'Cube'" in w or "'Point'" in w or "'Area'" in w for w in exported.warnings), exported.warnings
+    volpath.load_dict(exported.scene)  # the loader takes a light's lobe, scatter and shadow visibility

@@ -132,6 +132,10 @@ struct Ray {
     Vec3 at(Real t) const { return o + d * t; }
 };
 
+// What a ray was traced for: from the camera, after a diffuse, glossy (specular included) or
+// transmitting bounce, after scattering in a medium, or toward a light (a shadow ray).
+enum class RayKind : uint8_t { Camera = 1, Diffuse = 2, Glossy = 4, Transmission = 8, Scatter = 16, Shadow = 32 };
+
 // Offset scale for spawning rays off a surface: relative to the magnitude of the point,
 // because double-precision intersection error grows with it.
 inline Real ray_epsilon(const Vec3 &p) { return 1e-11 + 1e-9 * max_component(abs(p)); }

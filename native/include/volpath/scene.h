@@ -13,10 +13,6 @@
 
 namespace volpath {
 
-// What a ray was traced for: from the camera, after a diffuse, glossy (specular included) or
-// transmitting bounce, after scattering in a medium, or toward a light (a shadow ray).
-enum class RayKind : uint8_t { Camera = 1, Diffuse = 2, Glossy = 4, Transmission = 8, Scatter = 16, Shadow = 32 };
-
 struct ShapeInfo {
     int bsdf = -1;
     int light = -1;  // the AreaLight on this shape
@@ -54,8 +50,11 @@ struct Scene {
     // visibility of lights): Scatter, it lights no medium (neither NEE from a scattering
     // vertex nor a scattered ray that meets it count it); Shadow, it casts no shadow (NEE
     // toward it ignores what lies between, and only camera rays count it where they meet
-    // it: NEE alone lights the scene, unweighted).
+    // it: NEE alone lights the scene, unweighted); Diffuse, Glossy, Transmission, it lights
+    // surfaces through their other lobes only (NEE evaluates those; a bounce that finds it
+    // counts the share of its BSDF value they hold).
     std::vector<uint8_t> light_hidden_from;
+    bool lights_hide_lobes = false;  // a light hides from Diffuse, Glossy or Transmission; set by build()
     bool light_hides_from(int light, RayKind kind) const {
         return (light_hidden_from[size_t(light)] & uint8_t(kind)) != 0;
     }

@@ -105,6 +105,8 @@ Real plastic_specular_probability(const RoughPlasticBSDF &b, Real cos_i) {
 
 struct Eval {
     Vec3 wi, wo;
+    uint8_t hidden = 0;  // lobes left out (RayKind bits)
+    bool shows(RayKind lobe) const { return !(hidden & uint8_t(lobe)); }
     Spectrum operator()(const NullBSDF &) const { return Spectrum(0.0); }
     // D G F / (4 |cos_i|) on reflection; on refraction D G (1 - F) |wi.h| |wo.h| /
     // (cos_i (wo.h + wi.h / etap)^2) / etap^2, radiance compressed on entering (pbrt-v4).
@@ -113,6 +115,7 @@ struct Eval {
         if (m.h.z == 0) return Spectrum(0.0);
         const Real F = fresnel_dielectric(dot(wi, m.h), b.eta);
         const Real DG = ggx_d(b.alpha, m.h) * ggx_g1(b.alpha, wi, m.h) * ggx_g1(b.alpha, wo, m.h);
+        if (!shows(m.reflect ? RayKind::Glossy : RayKind::Transmission)) return Spectrum(0.0);
         if (m.reflect) return b.reflectance * (DG * F / (4.0 * std::abs(wi.z)));
         const Real denom = sqr(dot(wo, m.h) + dot(wi, m.h) / m.etap) * std::abs(wi.z);
         return b.transmittance * (DG * (1.0 - F) * std::abs(dot(wo, m.h) * dot(wi, m.h)) / denom / sqr(m.etap));
@@ -120,13 +123,13 @@ struct Eval {
     Spectrum operator()(const DielectricBSDF &) const { return Spectrum(0.0); }
     Spectrum operator()(const ThinDielectricBSDF &) const { return Spectrum(0.0); }
     Spectrum operator()(const ConductorBSDF &b) const {
-        if (b.alpha == 0 || wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
+        if (b.alpha == 0 || wi.z <= 0 || wo.z <= 0 || !shows(RayKind::Glossy)) return Spectrum(0.0);
         const Vec3 h = normalize(wi + wo);
         const Real DG = ggx_d(b.alpha, h) * ggx_g1(b.alpha, wi, h) * ggx_g1(b.alpha, wo, h);
         return b.specular * fresnel_conductor(dot(wi, h), b.eta, b.k) * (DG / (4.0 * wi.z));
     }
     Spectrum operator()(const DiffuseBSDF &b) const {
-        if (wi.z <= 0 || wo.z <= 0) return Spectrum(0.0);
+        if (wi.z <= 0 || wo.z <= 0 || !shows(RayKind::Diffuse)) return Spectrum(0.0);
         return b.reflectance * (kInvPi * wo.z);
     }
     Spectrum operator()(const RoughPlasticBSDF &b) const {
@@ -141,7 +144,8 @@ struct Eval {
         const Real t_i = 1.0 - fresnel_dielectric(wi.z, b.eta);
         const Real t_o = 1.0 - fresnel_dielectric(wo.z, b.eta);
         const Spectrum diff = b.diffuse * (kInvPi * wo.z * t_i * t_o / (1.0 - b.fdr_exterior));
-        return b.specular * spec + diff;
+        return (shows(RayKind::Glossy) ? b.specular * spec : Spectrum(0.0)) +
+               (shows(RayKind::Diffuse) ? diff : Spectrum(0.0));
     }
 };
 
@@ -306,9 +310,9 @@ Spectrum bsdf_albedo(const BSDF &bsdf) {
     return std::visit(Albedo{}, bsdf.model);
 }
 
-Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo) {
+Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo, uint8_t hidden_lobes) {
     flip_to_front(bsdf, wi, wo);
-    return std::visit(Eval{wi, wo}, bsdf.model);
+    return std::visit(Eval{wi, wo, hidden_lobes}, bsdf.model);
 }
 
 Real bsdf_pdf(const BSDF &bsdf, Vec3 wi, Vec3 wo) {

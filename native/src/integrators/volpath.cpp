@@ -139,7 +139,8 @@ Spectrum free_flight_density(const SegmentVertex &v) {
 // Next-event estimation from a scattering point: choose a light (uniformly among
 // Scene::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
 // sample a point on it and trace a shadow ray through index-matched boundaries and media.
-// `eval(d)` returns the scattering value f (times the cosine, for surfaces), `pdf(d)` the
+// `eval(d, hidden_lobes)` returns the scattering value f (times the cosine, for surfaces; of
+// the lobes the light does not hide from, kLobeRays bits), `pdf(d)` the
 // density of sampling d per channel: asked for only where phase or BSDF sampling could
 // find the light too (MIS). r_p is the path's rescaled unidirectional pdf.
 // `vertex`: the point is a SegmentVertex: drawn for its light, or free flight's collision,
@@ -167,7 +168,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     LightSample ls;
     if (!sample_light(scene.lights[light], scene.geometry, p, sampler.next_2d(), ls) || !(ls.pdf > 0) || is_black(ls.L))
         return Spectrum(0.0);
-    const Spectrum f = eval(ls.d);
+    const Spectrum f = eval(ls.d, surface ? uint8_t(scene.light_hidden_from[size_t(light)] & kLobeRays) : uint8_t(0));
     if (is_black(f)) return Spectrum(0.0);
 
     // Transmittance along the shadow ray. Homogeneous media have it in closed form;
@@ -341,6 +342,9 @@ struct Path {
     int depth = 0;                       // real scattering events so far
     bool specular_bounce = true;         // the camera counts as specular: nothing to MIS with
     RayKind ray_kind = RayKind::Camera;  // what the current ray was traced for
+    // After a bounce, where a light hides from some lobes (Scene::lights_hide_lobes): the
+    // share of the BSDF value in the ray's direction from its diffuse lobe.
+    Spectrum diffuse_share{0.0};
     Vec3 prev_p;
     int null_collisions = 0, null_crossings = 0;
     // The last scattering vertex, when a distance drawn for a light could have made it too:
@@ -385,7 +389,8 @@ struct Path {
                               const SegmentVertex *vertex, const SkyPoint *sky = nullptr);
     void segment_direct(const Medium &m, const HomogeneousMedium &h, Real t_end);
     void add_medium_emission(const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg);
-    void add_emission(const Spectrum &Le, int light, Real pdf_light_dir);
+    void add_emission(const Spectrum &emitted, int light, Real pdf_light_dir);
+    Spectrum shown_share(int light) const;
 
     // No further scattering allowed: only emitters hit by the next ray could still count.
     bool last_vertex() const { return feat.max_depth >= 0 && depth + 1 >= feat.max_depth; }
@@ -465,14 +470,26 @@ void Path::add_medium_emission(const MediumProperties &mp, const Spectrum &sigma
     if (pdf > 0 && average(r_e) > 0) L += beta * T_seg / pdf * mp.sigma_a * mp.Le / average(r_e);
 }
 
+// The share of the last bounce's BSDF value in the ray's direction from the lobes `light`
+// does not hide from. Found by the path, the light then lights what NEE's evaluation of
+// those lobes lights, under the same MIS weights (bsdf_pdf is all lobes' density for both).
+Spectrum Path::shown_share(int light) const {
+    const uint8_t hidden = scene.light_hidden_from[size_t(light)];
+    auto shown = [&](RayKind lobe) { return (hidden & uint8_t(lobe)) ? 0.0 : 1.0; };
+    if (ray_kind == RayKind::Transmission) return Spectrum(shown(RayKind::Transmission));
+    return diffuse_share * shown(RayKind::Diffuse) + (Spectrum(1.0) - diffuse_share) * shown(RayKind::Glossy);
+}
+
 // Emission of `light` found by following the path: weighted against NEE from both
 // distance strategies where they can find it.
-void Path::add_emission(const Spectrum &Le, int light, Real pdf_light_dir) {
-    if (is_black(Le)) return;
+void Path::add_emission(const Spectrum &emitted, int light, Real pdf_light_dir) {
+    if (is_black(emitted)) return;
     // Scene::light_hidden_from: a light hidden from scattered rays; one that casts no
     // shadow, which NEE alone finds wherever it can.
     if (ray_kind == RayKind::Scatter && scene.light_hides_from(light, RayKind::Scatter)) return;
     if (feat.nee && !specular_bounce && scene.light_hides_from(light, RayKind::Shadow)) return;
+    const Spectrum Le =
+        scene.lights_hide_lobes && (uint8_t(ray_kind) & kLobeRays) ? emitted * shown_share(light) : emitted;
     if (specular_bounce) {
         L += beta * Le / average(r_u);
     } else if (feat.emission_after_scatter) {
@@ -502,7 +519,7 @@ Spectrum Path::direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const
                                 const SegmentVertex *vertex, const SkyPoint *sky) {
     return sample_direct(
         scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
-        [&](const Vec3 &d) { return phase_eval(phase, dot(ray.d, d)); },
+        [&](const Vec3 &d, uint8_t) { return phase_eval(phase, dot(ray.d, d)); },
         [&](const Vec3 &d) { return sky ? sky->pdf(ray.d, d) : phase_pdf(phase, dot(ray.d, d)); }, vertex);
 }
 
@@ -905,7 +922,7 @@ Step Path::at_surface(const Intersection &its) {
     if (feat.nee && !is_delta(bsdf)) {
         L += sample_direct(
             scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler,
-            [&](const Vec3 &d) { return bsdf_eval(bsdf, wi, frame.to_local(d)); },
+            [&](const Vec3 &d, uint8_t hidden_lobes) { return bsdf_eval(bsdf, wi, frame.to_local(d), hidden_lobes); },
             [&](const Vec3 &d) { return Spectrum(bsdf_pdf(bsdf, wi, frame.to_local(d))); });
         if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return Step::Ended;
     }
@@ -915,6 +932,11 @@ Step Path::at_surface(const Intersection &its) {
     beta *= bs.weight;
     specular_bounce = bs.delta;
     ray_kind = bs.wo.z * wi.z < 0 ? RayKind::Transmission : bs.diffuse ? RayKind::Diffuse : RayKind::Glossy;
+    if (scene.lights_hide_lobes && !bs.delta)
+        diffuse_share =
+            safe_div(bsdf_eval(bsdf, wi, bs.wo, kLobeRays & ~uint8_t(RayKind::Diffuse)), bs.weight * bs.pdf);
+    else
+        diffuse_share = Spectrum(0.0);
     if (!bs.delta) r_l = r_u / bs.pdf;
     scattered_at.reset();
     prev_p = its.p;

@@ -46,8 +46,9 @@ int Scene::add_medium(const Medium &m) {
 
 namespace {
 void check_hidden_from(uint8_t hidden_from) {
-    if (hidden_from & ~uint8_t(uint8_t(RayKind::Scatter) | uint8_t(RayKind::Shadow)))
-        throw std::invalid_argument("a light can be hidden from scatter and shadow rays only");
+    if (hidden_from & ~uint8_t(kLobeRays | uint8_t(RayKind::Scatter) | uint8_t(RayKind::Shadow)))
+        throw std::invalid_argument(
+            "a light can be hidden from diffuse, glossy, transmission, scatter and shadow rays only");
 }
 }  // namespace
 
@@ -186,6 +187,8 @@ void Scene::build() {
             for (const Bounds &b : surface_bounds)
                 boundary_with_contact[size_t(i)] |= geometry.may_touch_surface(i, b, eps);
     }
+    lights_hide_lobes = std::any_of(light_hidden_from.begin(), light_hidden_from.end(),
+                                    [](uint8_t hidden) { return (hidden & kLobeRays) != 0; });
     shadows_stop_at_any_hit = std::none_of(shapes.begin(), shapes.end(), [&](const ShapeInfo &s) {
         const BSDF &b = bsdfs[size_t(s.bsdf)];
         return is_null(b) || is_layered(b) || s.hides_from(RayKind::Shadow);
