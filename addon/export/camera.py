@@ -53,7 +53,10 @@ def export(scene, report):
         "sampler": {"type": "independent", "sample_count": int(settings.spp)},
     }
     if cam.shift_x or cam.shift_y:
-        sensor["shift_x"], sensor["shift_y"] = float(cam.shift_x), float(cam.shift_y)
+        # Blender's shift is in fractions of the side the sensor fits (the larger one under
+        # Auto), the scene's in fractions of the larger side.
+        fitted = {"x": width, "y": height, "larger": max(width, height)}[axis] / max(width, height)
+        sensor["shift_x"], sensor["shift_y"] = float(cam.shift_x) * fitted, float(cam.shift_y) * fitted
     return sensor
 
 

@@ -8,7 +8,7 @@ import pytest
 from blender_scenes import add_camera, bpy, depsgraph, material, render_f12, set_background, small_scene
 
 import volpath
-from addon.export import ExportError, export_scene, write_directory
+from addon.export import ExportError, convert, export_scene, write_directory
 from addon.export.animation import export_animation
 from addon.export.convert import BLENDER_TO_SCENE
 from volpath.adaptive import SLACK
@@ -243,15 +243,28 @@ def test_no_camera_is_an_error_in_the_report(blank, capfd):
         export_scene(depsgraph())
 
 
-def test_camera_fit_and_shift(blank):
+@pytest.mark.parametrize("fit", ["AUTO", "HORIZONTAL", "VERTICAL"])
+@pytest.mark.parametrize("size", [(40, 30), (30, 40)], ids=["landscape", "portrait"])
+def test_camera_fit_and_shift(blank, fit, size):
+    """A small glowing ball lands on the pixel where Blender's own projection puts it
+    (bpy_extras' world_to_camera_view), whatever the sensor fit, the shift and the aspect."""
+    from bpy_extras.object_utils import world_to_camera_view
+    from mathutils import Vector
+
     cam = add_camera(blank, location=(0, 0, 0), rotation=(math.pi / 2, 0, 0))
-    cam.data.sensor_fit = "VERTICAL"
-    cam.data.sensor_height = 24
-    cam.data.lens = 35
-    cam.data.shift_x = 0.1
-    c = export_scene(depsgraph()).scene["camera"]
-    assert c["fov_axis"] == "y" and c["fov"] == pytest.approx(math.degrees(2 * math.atan(12 / 35)))
-    assert c["shift_x"] == pytest.approx(0.1)
+    cam.data.sensor_fit, cam.data.sensor_width, cam.data.sensor_height = fit, 36, 20
+    cam.data.lens, cam.data.shift_x, cam.data.shift_y = 30, 0.15, -0.1
+    blank.render.resolution_x, blank.render.resolution_y = size
+    blank.render.resolution_percentage = 100
+    ball = Vector((0.9, 8.0, 0.6))
+    u, v, _ = world_to_camera_view(blank, cam, ball)
+    d = export_scene(depsgraph()).scene
+    d["ball"] = {"type": "sphere", "center": convert.point(ball), "radius": 0.2, "emitter": {"type": "area"}}
+    image = volpath.render(volpath.load_dict(d), spp=16).mean(axis=2)
+    rows, cols = np.indices(image.shape) + 0.5
+    x, y = (cols * image).sum() / image.sum(), (rows * image).sum() / image.sum()  # the ball's centre
+    assert 0.1 < u < 0.9 and 0.1 < v < 0.9, (u, v)  # in the frame
+    assert abs(x - u * size[0]) < 0.3 and abs(y - (1 - v) * size[1]) < 0.3, (x, y, u * size[0], (1 - v) * size[1])
 
 
 def test_keyframed_sun_directions_match_frame_set(blank, tmp_path):
