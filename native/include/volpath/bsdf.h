@@ -139,12 +139,11 @@ inline bool is_delta(const BSDF &b) {
 // The colour a denoiser's albedo pass holds for the surface: its diffuse reflectance, or
 // white where it reflects or transmits specularly.
 Spectrum bsdf_albedo(const BSDF &bsdf);
-// f(wi, wo) * |cos wo|.
 // The ray kinds of a BSDF's lobes (RayKind bits): Diffuse, Glossy (specular included) and
 // Transmission.
 constexpr uint8_t kLobeRays = uint8_t(RayKind::Diffuse) | uint8_t(RayKind::Glossy) | uint8_t(RayKind::Transmission);
-// f times |cos wo|; with `hidden_lobes` (kLobeRays bits), from the other lobes alone: what
-// a light hidden from those rays lights (Blender's ray visibility of lights).
+// f(wi, wo) * |cos wo|; with `hidden_lobes` (kLobeRays bits), from the other lobes alone:
+// what a light hidden from those rays lights (Blender's ray visibility of lights).
 Spectrum bsdf_eval(const BSDF &bsdf, Vec3 wi, Vec3 wo, uint8_t hidden_lobes = 0);
 Real bsdf_pdf(const BSDF &bsdf, Vec3 wi, Vec3 wo);
 bool bsdf_sample(const BSDF &bsdf, Vec3 wi, Real u_lobe, Vec2 u, BSDFSample &out);
