@@ -26,7 +26,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 from make_grids import cumulus_field, write_vdb  # noqa: E402  (bench/)
 from mesh_loading import LOAD, PEAK, PEAK_MEMORY, PER_SAMPLE, RENDERERS, measure, plot  # noqa: E402
-from publish import publish  # noqa: E402
+from publish import publish, table  # noqa: E402
 
 SPP = 16
 RES = 128
@@ -127,6 +127,11 @@ def cycles_scene(path):
     return scene
 
 
+PEERS = ("Volpath", "Mitsuba", "Cycles")
+COLUMNS = ("cloud", *(f"{r} load" for r in PEERS), "ratio", *(f"{r} a sample" for r in PEERS), "ratio")
+COLUMNS += (*(f"{r} peak" for r in PEERS), "ratio", "reader")
+
+
 def main():
     from volpath.grids import write_vol
 
@@ -171,10 +176,7 @@ def main():
         "grid (it reads no OpenVDB). Load: the scene and a 1-spp render; a sample: the render's time over its "
         "samples (Cycles' less its per-render scene synchronisation); peak: the process's own resident memory "
         "above its imports (VmHWM); reader: the peak of Volpath's short-lived VDB-reading child. Ratios: "
-        "Volpath's over the better peer's.\n\n"
-        "| cloud | Volpath load | Mitsuba load | Cycles load | ratio | Volpath a sample | Mitsuba a sample | "
-        "Cycles a sample | ratio | Volpath peak | Mitsuba peak | Cycles peak | ratio | reader |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+        "Volpath's over the better peer's.\n\n" + table(COLUMNS, rows)
     )
     publish(section, args.append)
 

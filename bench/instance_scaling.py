@@ -21,7 +21,7 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 from mesh_loading import LOAD, PEAK, PEAK_MEMORY, PER_SAMPLE, RENDERERS, bumpy_sphere, measure, plot  # noqa: E402  (bench/)
-from publish import publish  # noqa: E402
+from publish import publish, table  # noqa: E402
 
 SPP = 16
 HEAD = """<scene version="3.0.0">
@@ -179,6 +179,11 @@ def write_scene(path, count):
     np.save(path[:-4] + ".npy", field(count, np.random.default_rng(1))[1] if count else np.zeros((0, 4, 4)))
 
 
+PEERS = ("Volpath", "Mitsuba", "Cycles")
+COLUMNS = ("instances", "triangles", *(f"{r} load" for r in PEERS), *(f"{r} a sample" for r in PEERS), "vs alone")
+COLUMNS += tuple(f"{r} peak" for r in PEERS)
+
+
 def best_of(jobs, runs):
     """Each (renderer, scene) job's figures, each the least over `runs` fresh processes, the
     jobs taken in turn: the machine's noise only adds time, and it drifts over minutes, so a
@@ -234,10 +239,7 @@ def main():
         "load includes a 1-spp render, which builds its BVH; its time a sample is the 16-spp render's less the "
         "1-spp one's). \"vs alone\": Volpath's time a sample over its time with the mesh alone, measured again "
         "in turn with the field's (target: at most "
-        "3x at 100 000 instances, within 2 GB).\n\n"
-        "| instances | triangles | Volpath load | Mitsuba load | Cycles load | Volpath a sample | Mitsuba a sample "
-        "| Cycles a sample | vs alone | Volpath peak | Mitsuba peak | Cycles peak |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+        "3x at 100 000 instances, within 2 GB).\n\n" + table(COLUMNS, rows)
     )
     publish(section, args.append)
 

@@ -21,7 +21,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-from publish import publish  # noqa: E402  (bench/)
+from publish import publish, table  # noqa: E402  (bench/)
 
 SCENE = """<scene version="3.0.0">
   <integrator type="path"><integer name="max_depth" value="2"/></integrator>
@@ -140,6 +140,10 @@ def plot(results, path, xlabel, panels=(LOAD, PEAK)):
     fig.savefig(path, dpi=110)
 
 
+COLUMNS = ("triangles", "file", *(f"{r} load" for r in ("Volpath", "Mitsuba", "Cycles")), "ratio")
+COLUMNS += (*(f"{r} peak" for r in ("Volpath", "Mitsuba", "Cycles")), "ratio")
+
+
 def main():
     from volpath.meshes import write_ply
 
@@ -178,9 +182,8 @@ def main():
         "render's scene and BVH), all on the machine's cores, same run; the ratios are Volpath's over the "
         "better of the two peers."
         + (f" Plotted log-log in `{args.plot}`." if args.plot else "")
-        + "\n\n| triangles | file | Volpath load | Mitsuba load | Cycles load | ratio | Volpath peak | "
-        "Mitsuba peak | Cycles peak | ratio |\n"
-        "|---|---|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+        + "\n\n"
+        + table(COLUMNS, rows)
     )
     publish(section, args.append)
 

@@ -20,7 +20,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
-from publish import publish  # noqa: E402  (bench/)
+from publish import publish, table  # noqa: E402  (bench/)
 
 CACHE = os.path.join(ROOT, "bench", "cache", "sunrise_quality")
 REF_SPP = 512
@@ -56,6 +56,12 @@ def references(frames, shape):
                 )
                 volpath.write_exr(path, image)
     return {f: [volpath.read_exr(p).astype(np.float64) for p in paths[f]] for f in frames}
+
+
+COLUMNS = (
+    *("frame", "display RMSE", "net of the reference's noise", "reference's noise"),
+    *("estimated (noisy)", "mean spp", "seconds"),
+)
 
 
 def main():
@@ -100,9 +106,7 @@ def main():
         f"The run in {os.path.relpath(args.out, ROOT)}: {w}x{h}, each frame {how}. References: "
         f"{REF_SPP} spp as two independent halves; display RMSE raw and net of the reference's noise "
         "(target: 0.02); the estimate is the renderer's own, before denoising; seconds per frame on "
-        "one worker thread (the pool runs two).\n\n"
-        "| frame | display RMSE | net of the reference's noise | reference's noise | estimated (noisy) | "
-        "mean spp | seconds |\n|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+        "one worker thread (the pool runs two).\n\n" + table(COLUMNS, rows)
     )
     publish(section, args.append)
 

@@ -39,6 +39,17 @@ inline UVTransform uv_transform(
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
+// An (n, 4, 4) array of matrices.
+inline std::vector<Transform> transforms(const DoubleArray &m, const char *what) {
+    if (m.ndim() != 3 || m.shape(1) != 4 || m.shape(2) != 4)
+        throw std::invalid_argument(std::string(what) + " must have shape (n, 4, 4)");
+    std::vector<Transform> out(size_t(m.shape(0)));
+    for (size_t i = 0; i < out.size(); ++i)
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) out[i].m[r][c] = m.at(i, r, c);
+    return out;
+}
+
 inline std::vector<Vec3> points(const DoubleArray &a, const char *what) {
     if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must have shape (n, 3)");
     std::vector<Vec3> out(size_t(a.shape(0)));

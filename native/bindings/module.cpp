@@ -474,15 +474,10 @@ PYBIND11_MODULE(_core, m) {
             "add_instances",
             [](Scene &s, const py::array_t<int, py::array::c_style | py::array::forcecast> &groups,
                const DoubleArray &to_world) {
-                if (groups.ndim() != 1 || to_world.ndim() != 3 || to_world.shape(0) != groups.shape(0) ||
-                    to_world.shape(1) != 4 || to_world.shape(2) != 4)
-                    throw std::invalid_argument("expected n groups and an (n, 4, 4) array of transforms");
-                for (py::ssize_t i = 0; i < groups.shape(0); ++i) {
-                    Transform t;
-                    for (int r = 0; r < 4; ++r)
-                        for (int c = 0; c < 4; ++c) t.m[r][c] = to_world.at(i, r, c);
-                    s.add_instance(groups.at(i), t, t.inverse());
-                }
+                const std::vector<Transform> maps = transforms(to_world, "to_world");
+                if (groups.ndim() != 1 || size_t(groups.shape(0)) != maps.size())
+                    throw std::invalid_argument("expected one group per transform");
+                for (size_t i = 0; i < maps.size(); ++i) s.add_instance(groups.at(i), maps[i], maps[i].inverse());
             },
             "Instances of shape groups, one a transform (n, 4, 4): one call for a field of them.", py::arg("groups"),
             py::arg("to_world"))

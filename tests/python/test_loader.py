@@ -341,3 +341,19 @@ def test_named_conductors_reflect_their_measured_index():
         volpath.load_string(S.scene(S.camera(res=4), metal.format("Unobtainium", "")))
     with pytest.raises(volpath.SceneError, match="either 'material' or 'eta' and 'k'"):
         volpath.load_string(S.scene(S.camera(res=4), metal.format("Au", '<rgb name="k" value="1, 1, 1"/>')))
+
+
+def test_loading_gives_the_cycle_collector_back_as_it_found_it():
+    """The collector is paused while a scene loads; after a load that fails it runs again,
+    and a caller who had paused it finds it paused still."""
+    import gc
+
+    with pytest.raises(volpath.SceneError):
+        volpath.load_string('<scene version="3.0.0"><shape type="nonsense"/></scene>')
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        volpath.load_string(S.scene(S.camera(res=4)))
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

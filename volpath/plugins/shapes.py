@@ -181,7 +181,7 @@ def instance(b, d):
         p.read.add(key)
     if len(groups) != 1:
         raise p.error(f"an instance names exactly one shapegroup (found {len(groups)})")
-    p.raw("to_world")
+    p.raw("to_world")  # checked with the other instances' in add_instances
     p.check()
     b.instances.append((shape_group(b, groups[0]), d))
     b.summary["instances"] += 1
