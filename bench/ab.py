@@ -47,11 +47,17 @@ print(seconds)
 """
 
 
-def time_to_equal_error(images, seconds):
+def time_to_equal_error(images, seconds, exposure=None):
     """Variance x time: the per-pixel variance across renders with different seeds (averaged
     over the image) times the median seconds per render. Proportional to the time an
-    unbiased renderer needs to reach a given error."""
-    variance = float(np.stack(images).astype(np.float64).var(axis=0, ddof=1).mean())
+    unbiased renderer needs to reach a given error. With `exposure` (stops), the variance of
+    the displayed images (volpath.tonemap.display), as the video shows them."""
+    stack = np.stack(images).astype(np.float64)
+    if exposure is not None:
+        from volpath.tonemap import display
+
+        stack = display(stack, exposure)
+    variance = float(stack.var(axis=0, ddof=1).mean())
     return variance, float(np.median(seconds)), variance * float(np.median(seconds))
 
 
@@ -128,6 +134,11 @@ def main():
     ap.add_argument("--seeds", type=int, default=6, help="renders per build and round")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument(
+        "--display",
+        action="store_true",
+        help="the variance of the displayed images, at the first build's auto exposure (for the sunrise)",
+    )
     args = ap.parse_args()
     if len(args.revs) < 2:
         ap.error("give at least two builds")
@@ -168,9 +179,13 @@ def main():
                     sys.exit(f"ab.py: {rev} failed:\n{result.stderr}")
                 renders[rev][0].append(np.load(out))
                 renders[rev][1].append(float(result.stdout.split()[-1]))
-    base = None
+    base = exposure = None
+    if args.display:
+        from volpath.tonemap import auto_exposure
+
+        exposure = auto_exposure(np.mean(next(iter(renders.values()))[0], axis=0))
     for rev, (images, seconds) in renders.items():
-        variance, median, cost = time_to_equal_error(images, seconds)
+        variance, median, cost = time_to_equal_error(images, seconds, exposure)
         base = base or cost
         print(
             f"{rev:>12}: {median:.3f} s per render, variance {variance:.4e}, mean {np.mean(images):.5f}, "

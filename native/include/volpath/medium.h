@@ -190,6 +190,9 @@ struct AirSegment {
 // `map`: the nodes' light includes the sky map's scattered light (see SkyMap).
 AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun,
                        const SkyMap *map = nullptr);
+// The optical depth over [ray.t_min, t_max], as air_segment's optical_depth(t_max) gives it,
+// without the nodes where the table covers the segment.
+Spectrum air_optical_depth(const AtmosphereMedium &m, const Ray &ray, Real t_max);
 
 using Medium = std::variant<HomogeneousMedium, GridMedium, AtmosphereMedium>;
 

@@ -66,6 +66,10 @@ constexpr Real kSkyMapShareGuide = 0.5, kSkyMapShareModel = 0.1;
 // prediction carries their rest.
 constexpr Real kSkyRouletteSurvival = 0.55;
 constexpr int kSkyRouletteDepth = 2;
+// The same roulette for a surface's bounce that escapes to the sky (Path::roulette_toward_sky).
+constexpr Real kSurfaceSkySurvival = 0.3;
+// Roulette by the map's predicted share of the sample (Path::roulette_by_share).
+constexpr Real kShareKept = 0.1, kShareSurvival = 0.05;
 // Mie's share of the map's light scattered at an event has no closed-form integral (its lobe
 // is narrow, the map piecewise constant): kMieLobeSamples directions of the lobe estimate it,
 // without bias, from the map alone.
@@ -383,7 +387,9 @@ struct Path {
     // `gathered`: its NEE is taken already (fly_through_medium's forced collisions).
     bool scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex = nullptr,
                            bool gathered = false);
-    bool roulette_after_sky_model(const Spectrum &arriving);
+    bool roulette_after_sky_model(const Spectrum &arriving, Real survival);
+    bool roulette_by_share(const Spectrum &arriving);
+    bool roulette_toward_sky(bool hit, const Intersection &its);
     bool roulette();
     Spectrum direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
                               const SegmentVertex *vertex, const SkyPoint *sky = nullptr);
@@ -411,6 +417,7 @@ Spectrum Path::trace(const FirstHit *first) {
             hit = scene.intersect(ray, its, medium);
         }
         if (medium >= 0 && splits_segment()) return split(hit, its);
+        if (!roulette_toward_sky(hit, its)) return L;
         const Real t_end = hit ? its.t : ray.t_max;
         if (medium >= 0) {
             const Step step = feat.scatter && guided_air(scene.media[medium]) ? fly_through_air(hit, its, t_end)
@@ -613,17 +620,17 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
     ray_kind = RayKind::Scatter;
     null_crossings = 0;
     ray = Ray{p, ps.d_out, 0, kInfinity};
-    return sky_model ? roulette_after_sky_model(arriving) : roulette();
+    if (sky_model) return depth < kSkyRouletteDepth || roulette_after_sky_model(arriving, kSkyRouletteSurvival);
+    return map && feat.nee ? roulette_by_share(map->radiance(sky->at, ps.d_out)) : roulette();
 }
 
 // Where the map models what the path brings back from its new direction, M, roulette uses
 // it as a control variate: M if the path ends here, M (1 - 1/q) and the path's light over q
 // if it goes on. Survival at least M / (L + M) per channel, so that neither takes the
 // sample's radiance so far below zero.
-bool Path::roulette_after_sky_model(const Spectrum &arriving) {
-    if (depth < kSkyRouletteDepth) return true;
+bool Path::roulette_after_sky_model(const Spectrum &arriving, Real survival) {
     const Spectrum M = beta * arriving / average(r_u);
-    Real q = kSkyRouletteSurvival;
+    Real q = survival;
     for (int c = 0; c < 3; ++c)
         if (M[c] > 0) q = std::max(q, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
     if (!(sampler.next_1d() < q)) {
@@ -631,6 +638,37 @@ bool Path::roulette_after_sky_model(const Spectrum &arriving) {
         return false;
     }
     L += M * (1 - 1 / q);
+    beta /= q;
+    return true;
+}
+
+// A ray off a surface that meets no shape brings back the sky, which the map predicts where
+// the sun alone lights the scene: roulette with that prediction as a control variate, as
+// after scattering in the air, from the first bounce on (terrain's sky light is mostly its
+// first bounce's). Before the flight through the air, where the cost is.
+bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
+    if (medium < 0 || specular_bounce || !(uint8_t(ray_kind) & kLobeRays) || !scene.sun_alone_under_mis) return true;
+    const SkyMap *map = sky_map_of(scene.media[medium]);
+    if (!map || !map->models_light || !feat.nee || (feat.max_depth >= 0 && depth + 2 >= feat.max_depth) ||
+        (hit && !leaves_for_empty_space(hit, its)))
+        return true;
+    return roulette_after_sky_model(map->radiance(map->at(ray.o), ray.d), kSurfaceSkySurvival);
+}
+
+// Where the map's prediction of what the path brings back, M, is no control variate (local
+// shapes may shadow the air), it still tells how much the rest of the walk can add to the
+// sample: the walk goes on surely where M is at least kShareKept of the sample's radiance with
+// it, else with probability M / (kShareKept (L + M)) in the likeliest channel, and at least
+// kShareSurvival. Cuts the camera's forced collisions in a few metres of air before
+// terrain: their walks weigh ~1e-4 of what the terrain shows.
+bool Path::roulette_by_share(const Spectrum &arriving) {
+    const Spectrum M = beta * arriving / average(r_u);
+    Real share = 0;
+    for (int c = 0; c < 3; ++c)
+        if (M[c] > 0) share = std::max(share, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
+    const Real q = std::max(share / kShareKept, kShareSurvival);
+    if (q >= 1) return roulette();
+    if (!(sampler.next_1d() < q)) return false;
     beta /= q;
     return true;
 }
@@ -702,11 +740,14 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
         for (int index : scene.infinite_lights) sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
         if (!sees_a_sun) return Flight::Ended;
     }
-    // The camera's pass-through branch needs only T: no sun lookups for the guide.
-    const AirSegment seg =
-        air_segment(*guided_air(m), ray, t_end, branch == Branch::PassThrough ? nullptr : scene.sun_guide(),
-                    map_model ? map : nullptr);
-    const Spectrum tau = seg.optical_depth(t_end), T = exp(-tau);
+    // The sun's lookups for the guide serve only a collision and the control variate: the
+    // camera's pass-through branch needs T alone, and without the control variate they wait
+    // until free flight has chosen to collide (most short segments between shapes do not).
+    const AtmosphereMedium &air = *guided_air(m);
+    const bool guide_now = branch == Branch::Collide || (branch == Branch::All && light_model);
+    AirSegment seg;
+    if (guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), map_model ? map : nullptr);
+    const Spectrum tau = guide_now ? seg.optical_depth(t_end) : air_optical_depth(air, ray, t_end), T = exp(-tau);
     Real p_collide = branch == Branch::Collide ? 1 : 0;
     if (branch == Branch::All) {
         for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;  // 1 - T by expm1: exact for thin air too
@@ -726,6 +767,7 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
     branch = Branch::All;
     if (collide) {
         Real t, pdf;
+        if (!guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide());
         if (last_vertex() || !seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
         const Vec3 p = ray.at(t);
         if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));

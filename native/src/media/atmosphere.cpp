@@ -172,6 +172,30 @@ void set_weights(AirSegment &s, const Spectrum *free_flight) {
 }
 }  // namespace
 
+namespace {
+// The table's depth to the top from ray.at(a), along -d if d meets the ground ahead (so
+// that the lookups from a and from any later point along the ray both see the sky).
+bool table_start(const AtmosphereMedium &m, const Ray &ray, Real a, bool &downward, Spectrum &tau_start) {
+    const Vec3 v = ray.at(a) - m.center;
+    const Real r = length(v), mu_a = dot(v, ray.d) / r;
+    downward = mu_a < 0 && r * r * (mu_a * mu_a - 1) + m.planet_radius * m.planet_radius >= 0;
+    return m.tabulated_tau_to_top(ray.at(a), downward ? -ray.d : ray.d, tau_start);
+}
+}  // namespace
+
+Spectrum air_optical_depth(const AtmosphereMedium &m, const Ray &ray, Real t_max) {
+    Real r0, r1;
+    if (!sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1)) return Spectrum(0.0);
+    const Real a = std::max(ray.t_min, r0), b = std::min(t_max, r1);
+    if (!(a < b)) return Spectrum(0.0);
+    bool downward;
+    Spectrum tau_start, tau_end;
+    if (table_start(m, ray, a, downward, tau_start) &&
+        m.tabulated_tau_to_top(ray.at(b), downward ? -ray.d : ray.d, tau_end))
+        return clamp_zero(downward ? tau_end - tau_start : tau_start - tau_end);
+    return air_segment(m, ray, t_max, nullptr).optical_depth(t_max);
+}
+
 AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, const SunGuide *sun, const SkyMap *map) {
     AirSegment s;
     s.air = &m, s.ray = ray;
@@ -215,11 +239,7 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
                       : Spectrum(0.0);
     }
     s.n = K + 1;
-    // The table's depth to the top from the start, along -d if d meets the ground ahead.
-    const Vec3 v = ray.at(a) - m.center;
-    const Real r = length(v), mu_a = dot(v, ray.d) / r;
-    s.downward = mu_a < 0 && r * r * (mu_a * mu_a - 1) + m.planet_radius * m.planet_radius >= 0;
-    if (!m.tabulated_tau_to_top(ray.at(a), s.downward ? -ray.d : ray.d, s.tau_start)) s.tau_start = Spectrum(kInfinity);
+    if (!table_start(m, ray, a, s.downward, s.tau_start)) s.tau_start = Spectrum(kInfinity);
     // Not across the planet's shadow: the sun's model runs linearly into it from the last
     // lit node, where NEE finds nothing, so there it would overestimate by far.
     bool lit = true, shadowed = true;
