@@ -441,13 +441,16 @@ def test_sun_transmittance_table_error():
 
 def test_sun_transmittance_short_of_the_top_takes_the_quadrature():
     """A shadow-ray segment that stops inside the air (at an object) is not what the table
-    holds: it takes Simpson's rule on its own span."""
+    holds: it takes Simpson's rule on its own span, with fewer intervals on short spans
+    (each at most a fifth of Mie's scale height), from the ground and from 3 km up."""
     scene = air_scene()
-    o, d = (0.0, 2.0, 0.0), (0.0, math.sin(math.radians(5)), math.cos(math.radians(5)))
-    for t_max in (10.0, 1e3, 5e4):
-        tau = np.array(_core.sun_optical_depth(scene.native, 0, o, d, t_max))
-        ref = np.array(_core.optical_depth(scene.native, 0, o, d, t_max, 4000))
-        assert np.allclose(tau, ref, rtol=1e-4, atol=1e-9), (t_max, tau, ref)
+    for elevation in (0.5, 5, 30, 90):
+        d = (0.0, math.sin(math.radians(elevation)), math.cos(math.radians(elevation)))
+        for o in ((0.0, 2.0, 0.0), (0.0, 3e3, 0.0)):
+            for t_max in (10.0, 300.0, 1e3, 2e3, 5e3, 2e4):
+                tau = np.array(_core.sun_optical_depth(scene.native, 0, o, d, t_max))
+                ref = np.array(_core.optical_depth(scene.native, 0, o, d, t_max, 4000))
+                assert np.allclose(tau, ref, rtol=1e-4, atol=1e-9), (elevation, o, t_max, tau, ref)
 
 
 def test_bad_atmosphere_options_name_file_line_and_choices():

@@ -251,7 +251,8 @@ Spectrum optical_depth(const Medium &m, const Ray &ray, Real t_max, int steps);
 
 // Optical depth of a shadow ray toward the sun through the air over [ray.t_min, t_max]:
 // from the table where the segment runs to the top of the atmosphere, else by Simpson's
-// rule with kSunQuadratureSteps intervals per majorant piece.
+// rule on each majorant piece with intervals of at most a fifth of the shortest scale height
+// (relative error ~1e-5 where the density is exponential), at most kSunQuadratureSteps.
 constexpr int kSunQuadratureSteps = 16;
 Spectrum sun_optical_depth(const Medium &m, const Ray &ray, Real t_max);
 

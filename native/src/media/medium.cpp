@@ -121,7 +121,9 @@ Spectrum sun_optical_depth(const Medium &medium, const Ray &ray, Real t_max) {
         sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1) && t_max >= r1 * (1 - 1e-9) &&
         m.tabulated_tau_to_top(ray.at(std::max(ray.t_min, r0)), ray.d, tau))
         return tau;
-    return optical_depth(medium, ray, t_max, kSunQuadratureSteps);
+    const Real piece = (t_max - ray.t_min) / m.pieces, H = std::min(m.mie_height, m.rayleigh_height);
+    const Real steps = std::min(2 * std::ceil(piece / (0.4 * H)), Real(kSunQuadratureSteps));
+    return optical_depth(medium, ray, t_max, std::max(int(steps), 2));
 }
 
 MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) : ray_(ray) {
