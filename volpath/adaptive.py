@@ -18,7 +18,11 @@ its pixels' and channels' mean; the image's error is the pixel-weighted RMS over
 blocks. tests/stats/test_adaptive.py checks that the spread of independent renders, on
 screen, is the target to within 20 %.
 
-The rounds. Every pixel first takes ``min_spp`` samples. After each round, water-filling
+The rounds. The whole image first takes PILOT_SPP samples a pixel, and while its error is
+above the target it grows evenly by what the error predicts it needs (error ~ 1 / sqrt(n)),
+up to ``min_spp``: a loose target stops where it is met instead of at ``min_spp``, whose
+error may be half the target, and no block is judged on fewer samples. After each round
+from then on, water-filling
 finds the level E* to which the blocks above it must be brought so that the image's error
 is the target (blocks below it, or stopped at the sample cap, keep theirs); each such block
 takes the samples that its error predicts it needs (error ~ 1 / sqrt(n)), at least a
@@ -37,7 +41,7 @@ from . import _core
 from .tonemap import auto_exposure, display
 
 BLOCK = 8
-MIN_SPP = 8
+PILOT_SPP, MIN_SPP = 2, 8
 SLACK, AIM = 1.05, 0.95
 
 
@@ -106,7 +110,14 @@ class Adaptive:
         """Samples each pixel takes in the next round (uint32, even), and the samples every
         unfinished block is predicted to need beyond that."""
         if not self.taken.any():
-            return np.full(self.taken.shape, self.min_spp, np.uint32), 0.0
+            return self._evenly(min(PILOT_SPP, self.min_spp)), 0.0
+        taken = int(self.taken.min())
+        if taken < self.min_spp:  # still even: the image's error decides
+            if self.error <= SLACK * self.target:
+                return self._evenly(0), 0.0
+            needed = min(taken * (self.error / (AIM * self.target)) ** 2, self.max_spp)
+            step = min(max(_even(np.ceil(needed)), taken + 2), self.min_spp) - taken
+            return self._evenly(step), max(needed - taken - step, 0.0) * self.taken.size
         n = self._block_view(self.taken).astype(np.float64)
         level = self.level(n)
         # SLACK keeps a block that the estimate's noise puts just above E* from taking a
@@ -119,6 +130,9 @@ class Adaptive:
         step = np.where(unfinished, step, 0)
         later = np.where(unfinished, np.maximum(needed - n - step, 0), 0)
         return self._pixels(step).astype(np.uint32), float(self._per_block(self._pixels(later)).sum())
+
+    def _evenly(self, n):
+        return np.full(self.taken.shape, n, np.uint32)
 
     def _block_view(self, per_pixel):
         """A per-pixel array that is constant over blocks, as (blocks_y, blocks_x)."""
