@@ -7,7 +7,9 @@ error is the display RMSE (the video's tone curve at the reference's auto exposu
 shown raw and net of the reference's own noise (a quarter of the halves' squared displayed
 difference). The frames' seconds, mean spp and estimated error come from summary.json.
 
-    .venv/bin/python bench/sunrise_quality.py [--out out/sunrise] [--frames 1 36 71] [--append bench/RESULTS.md]
+    .venv/bin/python bench/sunrise_quality.py [--out out/sunrise] [--frames 1 36 71] [--ref-spp 512] [--append bench/RESULTS.md]
+
+(--ref-spp below 512 for a quicker run: the net error subtracts the reference's larger noise.)
 """
 
 import argparse
@@ -27,12 +29,12 @@ REF_SPP = 512
 THREADS = 2
 
 
-def references(frames, shape):
+def references(frames, shape, ref_spp):
     """{frame: (half a, half b)} at the run's resolution, rendered once and cached."""
     import volpath
 
     height, width = shape
-    paths = {f: [os.path.join(CACHE, f"{width}x{height}_{f}_{seed}.exr") for seed in (1001, 2002)] for f in frames}
+    paths = {f: [os.path.join(CACHE, f"{width}x{height}_{ref_spp}_{f}_{seed}.exr") for seed in (1001, 2002)] for f in frames}
     missing = [f for f in frames if not all(os.path.exists(p) for p in paths[f])]
     if missing:
         import bpy
@@ -52,7 +54,7 @@ def references(frames, shape):
         for f in missing:
             for path, seed in zip(paths[f], (1001, 2002)):
                 image, _ = render_frame(
-                    directory, f, REF_SPP // 2, tracer="null_scattering", seed=seed, threads=THREADS
+                    directory, f, ref_spp // 2, tracer="null_scattering", seed=seed, threads=THREADS
                 )
                 volpath.write_exr(path, image)
     return {f: [volpath.read_exr(p).astype(np.float64) for p in paths[f]] for f in frames}
@@ -71,6 +73,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "sunrise"))
     ap.add_argument("--frames", type=int, nargs="+", default=[1, 36, 71])
+    ap.add_argument("--ref-spp", type=int, default=REF_SPP, help="the references' samples (two halves)")
     ap.add_argument("--append")
     args = ap.parse_args()
     with open(os.path.join(args.out, "summary.json"), encoding="utf-8") as f:
@@ -79,7 +82,7 @@ def main():
         f: volpath.read_exr(os.path.join(args.out, "frames", f"frame_{f:04d}.exr")).astype(np.float64)
         for f in args.frames
     }
-    refs = references(args.frames, next(iter(images.values())).shape[:2])
+    refs = references(args.frames, next(iter(images.values())).shape[:2], args.ref_spp)
     rows = []
     for f in args.frames:
         a, b = refs[f]
@@ -104,7 +107,7 @@ def main():
     section = (
         f"\n## `make sunrise`'s frames against converged ones (issue #33; `bench/sunrise_quality.py`)\n\n"
         f"The run in {os.path.relpath(args.out, ROOT)}: {w}x{h}, each frame {how}. References: "
-        f"{REF_SPP} spp as two independent halves; display RMSE raw and net of the reference's noise "
+        f"{args.ref_spp} spp as two independent halves; display RMSE raw and net of the reference's noise "
         "(target: 0.02); the estimate is the renderer's own, before denoising; seconds per frame on "
         "one worker thread (the pool runs two).\n\n" + table(COLUMNS, rows)
     )
