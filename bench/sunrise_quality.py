@@ -34,7 +34,9 @@ def references(frames, shape, ref_spp):
     import volpath
 
     height, width = shape
-    paths = {f: [os.path.join(CACHE, f"{width}x{height}_{ref_spp}_{f}_{seed}.exr") for seed in (1001, 2002)] for f in frames}
+    paths = {
+        f: [os.path.join(CACHE, f"{width}x{height}_{ref_spp}_{f}_{seed}.exr") for seed in (1001, 2002)] for f in frames
+    }
     missing = [f for f in frames if not all(os.path.exists(p) for p in paths[f])]
     if missing:
         import bpy

@@ -642,10 +642,10 @@ bool Path::roulette_after_sky_model(const Spectrum &arriving, Real survival) {
     return true;
 }
 
-// A ray off a surface that meets no shape brings back the sky, which the map predicts where
-// the sun alone lights the scene: roulette with that prediction as a control variate, as
-// after scattering in the air, from the first bounce on (terrain's sky light is mostly its
-// first bounce's). Before the flight through the air, where the cost is.
+// A ray off a surface that meets no shape but the air's top brings back the sky, which the
+// map predicts where the sun alone lights the scene: roulette with that prediction as a
+// control variate, as after scattering in the air, from the first bounce on (terrain's sky
+// light is mostly its first bounce's). Before the flight through the air, where the cost is.
 bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
     if (medium < 0 || specular_bounce || !(uint8_t(ray_kind) & kLobeRays) || !scene.sun_alone_under_mis) return true;
     const SkyMap *map = sky_map_of(scene.media[medium]);

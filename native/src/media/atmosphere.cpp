@@ -170,9 +170,7 @@ void set_weights(AirSegment &s, const Spectrum *free_flight) {
                               exp_interpolated_integral(s.node[k - 1].weight, q.weight, q.t - s.node[k - 1].t);
     }
 }
-}  // namespace
 
-namespace {
 // The table's depth to the top from ray.at(a), along -d if d meets the ground ahead (so
 // that the lookups from a and from any later point along the ray both see the sky).
 bool table_start(const AtmosphereMedium &m, const Ray &ray, Real a, bool &downward, Spectrum &tau_start) {
