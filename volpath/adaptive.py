@@ -22,8 +22,7 @@ The rounds. The whole image first takes PILOT_SPP samples a pixel, and while its
 above the target it grows evenly by what the error predicts it needs (error ~ 1 / sqrt(n)),
 up to ``min_spp``: a loose target stops where it is met instead of at ``min_spp``, whose
 error may be half the target, and no block is judged on fewer samples. After each round
-from then on, water-filling
-finds the level E* to which the blocks above it must be brought so that the image's error
+from then on, water-filling finds the level E* to which the blocks above it must be brought so that the image's error
 is the target (blocks below it, or stopped at the sample cap, keep theirs); each such block
 takes the samples that its error predicts it needs (error ~ 1 / sqrt(n)), at least a
 quarter more and at most as many again as it has. Blocks within SLACK of E* take no round of a

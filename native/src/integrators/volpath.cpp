@@ -389,6 +389,7 @@ struct Path {
                            bool gathered = false);
     bool roulette_after_sky_model(const Spectrum &arriving, Real survival);
     bool roulette_by_share(const Spectrum &arriving);
+    Real share_of_sample(const Spectrum &M) const;
     bool roulette_toward_sky(bool hit, const Intersection &its);
     bool roulette();
     Spectrum direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
@@ -624,15 +625,22 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
     return map && feat.nee ? roulette_by_share(map->radiance(sky->at, ps.d_out)) : roulette();
 }
 
+// The largest share over channels that light M, still to come, would have of the sample's
+// radiance with it (0 where M is 0).
+Real Path::share_of_sample(const Spectrum &M) const {
+    Real share = 0;
+    for (int c = 0; c < 3; ++c)
+        if (M[c] > 0) share = std::max(share, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
+    return share;
+}
+
 // Where the map models what the path brings back from its new direction, M, roulette uses
 // it as a control variate: M if the path ends here, M (1 - 1/q) and the path's light over q
 // if it goes on. Survival at least M / (L + M) per channel, so that neither takes the
 // sample's radiance so far below zero.
 bool Path::roulette_after_sky_model(const Spectrum &arriving, Real survival) {
     const Spectrum M = beta * arriving / average(r_u);
-    Real q = survival;
-    for (int c = 0; c < 3; ++c)
-        if (M[c] > 0) q = std::max(q, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
+    const Real q = std::max(survival, share_of_sample(M));
     if (!(sampler.next_1d() < q)) {
         L += M;
         return false;
@@ -662,11 +670,7 @@ bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
 // kShareSurvival. Cuts the camera's forced collisions in a few metres of air before
 // terrain: their walks weigh ~1e-4 of what the terrain shows.
 bool Path::roulette_by_share(const Spectrum &arriving) {
-    const Spectrum M = beta * arriving / average(r_u);
-    Real share = 0;
-    for (int c = 0; c < 3; ++c)
-        if (M[c] > 0) share = std::max(share, M[c] / (std::max(gathered[c] + L[c], 0.0) + M[c]));
-    const Real q = std::max(share / kShareKept, kShareSurvival);
+    const Real q = std::max(share_of_sample(beta * arriving / average(r_u)) / kShareKept, kShareSurvival);
     if (q >= 1) return roulette();
     if (!(sampler.next_1d() < q)) return false;
     beta /= q;
