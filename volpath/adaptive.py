@@ -7,29 +7,29 @@ target_error=0.01 asks for 1 % of the display's range, and dark and overexposed 
 count as little as they show.
 
 The estimate. Every pixel's samples are split by index parity into two half-buffers drawn
-from two independent sequences (the native renderer's ``halves``), A and B, each the mean
-of half the samples, the pixel I = (A + B) / 2. A and B are displayed, and a quarter of
-their squared difference estimates the displayed pixel's squared error: were the display
-linear, without bias (Var(A - B) = 4 Var(I)); as it is, the curve compresses a firefly in
-one half as much as it compresses it on screen, where the curve's slope at I would count
-it at full strength (on the sunrise's sparkling fog bank that asked for far more samples
-than the screen needed). Each BLOCK x BLOCK block's mean squared display error is
-its pixels' and channels' mean; the image's error is the pixel-weighted RMS over the
-blocks. tests/stats/test_adaptive.py checks that the spread of independent renders, on
-screen, is the target to within 20 %.
+from two independent sequences (the native renderer's ``halves``), A and B, the means of
+n_a = ceil(n / 2) and n_b = floor(n / 2) samples, the pixel I their samples' mean. A and B
+are displayed, and their squared difference over 1/n_a + 1/n_b estimates the displayed
+pixel's variance per sample: were the display linear, without bias (Var(A - B) =
+sigma^2 (1/n_a + 1/n_b)); as it is, the curve compresses a firefly in one half as much as
+it compresses it on screen, where the curve's slope at I would count it at full strength
+(on the sunrise's sparkling fog bank that asked for far more samples than the screen
+needed). A BLOCK x BLOCK block's variance sigma_b^2 is its pixels' and channels' mean; the
+image's squared error is the pixels' mean of sigma^2 / n. tests/stats/test_adaptive.py
+checks that the spread of independent renders, on screen, is the target to within 20 %.
 
-The rounds. The whole image first takes PILOT_SPP samples a pixel, and while its error is
-above the target it grows evenly by what the error predicts it needs (error ~ 1 / sqrt(n)),
-up to ``min_spp``: a loose target stops where it is met instead of at ``min_spp``, whose
-error may be half the target, and no block is judged on fewer samples. After each round
-from then on, water-filling finds the level E* to which the blocks above it must be brought so that the image's error
-is the target (blocks below it, or stopped at the sample cap, keep theirs); each such block
-takes the samples that its error predicts it needs (error ~ 1 / sqrt(n)), at least a
-quarter more and at most as many again as it has. Blocks within SLACK of E* take no round of a
-few samples: the image may end up to SLACK - 1 above the target. A block's decision depends
-on its own samples only through its error estimate, pooled over up to 3 BLOCK^2 values: the
-bias this leaves is of second order, below the z-tests' resolution, where per-pixel
-decisions are caught (tests/stats/test_adaptive.py).
+The rounds. The whole image first takes PILOT_SPP samples a pixel. While its error is above
+the target, each block is given the samples that reach the target with the fewest in all:
+in proportion to sigma_b (Neyman's allocation; bringing every block to one error would
+give them in proportion to sigma_b^2, and at the sunrise's 5-spp targets cost as much as
+sampling evenly), never fewer than it has nor more than the cap. Each block then takes at
+least a quarter more and at most as many again as it has, aiming at AIM of the target; a
+block that the share-out gives less than SLACK^2 its samples takes none, and the image
+stops within SLACK of the target. A block's mean count may be fractional: its pixels
+share it out by a fixed ordered dither, so counts need not be even nor whole per block. A
+block's decision depends on its own samples only through its variance, pooled over up to
+3 BLOCK^2 values: the bias this leaves is of second order, below the z-tests' resolution,
+where per-pixel decisions are caught (tests/stats/test_adaptive.py).
 """
 
 import time
@@ -40,27 +40,33 @@ from . import _core
 from .tonemap import auto_exposure, display
 
 BLOCK = 8
-PILOT_SPP, MIN_SPP = 2, 8
+PILOT_SPP = 2
 SLACK, AIM = 1.05, 0.95
+# Thresholds of the 8x8 ordered dither (Bayer) by which a block's pixels share out a
+# fractional count: fixed, so they tell nothing about any pixel's samples.
+_BAYER = np.zeros((1, 1))
+for _ in range(3):
+    _BAYER = np.block([[4 * _BAYER, 4 * _BAYER + 2], [4 * _BAYER + 3, 4 * _BAYER + 1]])
+DITHER = (_BAYER + 0.5) / 64
 
 
 class Adaptive:
     """The state of one adaptive render: the half-buffers, each pixel's sample count, and
     the error estimates after the last round."""
 
-    def __init__(self, height, width, target, max_spp, exposure=None, min_spp=MIN_SPP):
+    def __init__(self, height, width, target, max_spp, exposure=None):
         if not (isinstance(target, (int, float)) and 0 < target < 1):
             raise ValueError(f"target_error must be a display error in (0, 1), e.g. 0.01, got {target!r}")
-        if max_spp < 2:
-            raise ValueError(f"spp (the cap with target_error) must be at least 2, got {max_spp}")
-        self.target, self.max_spp, self.exposure = float(target), _even(max_spp, down=True), exposure
-        self.min_spp = min(_even(min_spp), self.max_spp)
+        if max_spp < PILOT_SPP:
+            raise ValueError(f"spp (the cap with target_error) must be at least {PILOT_SPP}, got {max_spp}")
+        self.target, self.max_spp, self.exposure = float(target), int(max_spp), exposure
         self.halves = np.zeros((height, width, 2, 3))
         self.taken = np.zeros((height, width), np.uint32)
         self.blocks_y, self.blocks_x = -(-height // BLOCK), -(-width // BLOCK)
         self.block_pixels = self._per_block(np.ones((height, width)))
+        self.dither = np.tile(DITHER, (self.blocks_y, self.blocks_x))[:height, :width]
         self.error = np.inf
-        self.block_error = np.full((self.blocks_y, self.blocks_x), np.inf)
+        self.block_variance = np.full((self.blocks_y, self.blocks_x), np.inf)
 
     def image(self):
         n = np.maximum(self.taken, 1)[..., None]
@@ -74,77 +80,68 @@ class Adaptive:
         return padded.reshape(self.blocks_y, BLOCK, self.blocks_x, BLOCK).sum(axis=(1, 3))
 
     def estimate(self):
-        """Update the blocks' and the image's display errors from the half-buffers."""
-        half_n = np.maximum(self.taken, 2)[..., None] / 2
-        a, b = self.halves[:, :, 0] / half_n, self.halves[:, :, 1] / half_n
-        image = (a + b) / 2
+        """Update the blocks' variances per sample and the image's display error from the
+        half-buffers: even sample indices in the first, odd ones in the second."""
+        n = self.taken.astype(np.float64)
+        n_a, n_b = np.maximum(np.ceil(n / 2), 1), np.maximum(np.floor(n / 2), 1)
+        a, b = self.halves[:, :, 0] / n_a[..., None], self.halves[:, :, 1] / n_b[..., None]
+        image = self.halves.sum(axis=2) / np.maximum(n, 1)[..., None]
         exposure = auto_exposure(image) if self.exposure is None else self.exposure
-        squared = np.mean((display(a, exposure) - display(b, exposure)) ** 2, axis=2) / 4
-        self.block_error = np.sqrt(self._per_block(squared) / self.block_pixels)
-        self.error = self._rms(self.block_error)
+        difference = np.mean((display(a, exposure) - display(b, exposure)) ** 2, axis=2)
+        per_sample = difference / (1 / n_a + 1 / n_b)  # Var(A - B) = sigma^2 (1/n_a + 1/n_b)
+        self.block_variance = self._per_block(per_sample) / self.block_pixels
+        self.error = float(np.sqrt(np.mean(per_sample / np.maximum(n, 1))))
         return self.error
 
-    def _rms(self, block_error):
-        """The image's error from its blocks' (pixel-weighted)."""
-        return float(np.sqrt(np.sum(self.block_pixels * block_error**2) / np.sum(self.block_pixels)))
+    def share_out(self, n):
+        """Samples per block (float, not below ``n`` nor above the cap) that bring the
+        image's error to the target with the fewest samples: each block's in proportion to
+        its standard deviation per sample (Neyman's allocation, which minimizes
+        sum sigma_b^2 / n_b for a given sum n_b), the factor found by bisection. Noisy
+        blocks end noisier than quiet ones, at fewer samples in all than bringing every
+        block to one error would take."""
+        sigma = np.sqrt(self.block_variance)
+        weight = self.block_pixels / self.block_pixels.sum()
 
-    def level(self, n):
-        """The error E* that the unfinished blocks are sampled to: the image's RMS error is
-        the target when every block ends at min(E_b, E*), or at the error it has at the
-        sample cap when that is higher (water-filling, by bisection)."""
-        cap_error = self.block_error * np.sqrt(n / self.max_spp)
+        def squared_error(k):
+            with np.errstate(invalid="ignore"):  # inf * 0: a black block, which needs none
+                counts = np.clip(np.nan_to_num(k * sigma), n, self.max_spp)
+            return float(np.sum(weight * self.block_variance / counts))
 
-        def rms(level):
-            return self._rms(np.maximum(np.minimum(self.block_error, level), cap_error))
-
-        lo, hi = 0.0, float(self.block_error.max())
-        if rms(hi) <= self.target:
-            return hi
+        if squared_error(np.inf) >= self.target**2:  # every noisy block to the cap
+            return np.where(sigma > 0, float(self.max_spp), n)
+        lo, hi = 0.0, 1.0
+        while squared_error(hi) > self.target**2:
+            lo, hi = hi, 2 * hi
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if rms(mid) <= self.target else (lo, mid)
-        return lo
+            lo, hi = (mid, hi) if squared_error(mid) > self.target**2 else (lo, mid)
+        return np.clip(hi * sigma, n, self.max_spp)
 
     def next_counts(self):
-        """Samples each pixel takes in the next round (uint32, even), and the samples every
+        """Samples each pixel takes in the next round (uint32), and the samples every
         unfinished block is predicted to need beyond that."""
         if not self.taken.any():
-            return self._evenly(min(PILOT_SPP, self.min_spp)), 0.0
-        taken = int(self.taken.min())
-        if taken < self.min_spp:  # still even: the image's error decides
-            if self.error <= SLACK * self.target:
-                return self._evenly(0), 0.0
-            needed = min(taken * (self.error / (AIM * self.target)) ** 2, self.max_spp)
-            step = min(max(_even(np.ceil(needed)), taken + 2), self.min_spp) - taken
-            return self._evenly(step), max(needed - taken - step, 0.0) * self.taken.size
-        n = self._block_view(self.taken).astype(np.float64)
-        level = self.level(n)
-        # SLACK keeps a block that the estimate's noise puts just above E* from taking a
-        # round of a few samples; AIM lands the next round just below it.
-        unfinished = (self.block_error > SLACK * level) & (n < self.max_spp)
-        with np.errstate(divide="ignore", invalid="ignore"):  # E* = 0: every block to the cap
-            needed = np.minimum(np.ceil(n * (self.block_error / (AIM * level)) ** 2), self.max_spp)
+            return self._pixels(np.full(self.block_variance.shape, float(PILOT_SPP))), 0.0
+        if self.error <= SLACK * self.target:
+            return np.zeros_like(self.taken), 0.0
+        n = self._per_block(self.taken) / self.block_pixels
+        # AIM lands the next round just below the target; SLACK keeps a block from taking a
+        # round of a few samples that the estimate's noise asked for.
+        needed = np.minimum(self.share_out(n) / AIM**2, self.max_spp)
+        unfinished = (needed > SLACK**2 * n) & (n < self.max_spp)
         step = np.clip(needed - n, n / 4, n)  # at least a quarter more, at most as many again
-        step = np.minimum(2 * np.ceil(step / 2), self.max_spp - n)
-        step = np.where(unfinished, step, 0)
-        later = np.where(unfinished, np.maximum(needed - n - step, 0), 0)
-        return self._pixels(step).astype(np.uint32), float(self._per_block(self._pixels(later)).sum())
-
-    def _evenly(self, n):
-        return np.full(self.taken.shape, n, np.uint32)
-
-    def _block_view(self, per_pixel):
-        """A per-pixel array that is constant over blocks, as (blocks_y, blocks_x)."""
-        return per_pixel[::BLOCK, ::BLOCK]
+        goal = np.where(unfinished, np.minimum(n + step, self.max_spp), n)
+        later = float(np.sum(self.block_pixels * np.where(unfinished, needed - goal, 0)))
+        return self._pixels(goal) - self.taken, max(later, 0.0)
 
     def _pixels(self, per_block):
+        """Per-pixel counts (uint32) whose block means are ``per_block`` (fractional),
+        shared out by the ordered dither, never below what a pixel has taken."""
         h, w = self.taken.shape
-        return np.repeat(np.repeat(per_block, BLOCK, axis=0), BLOCK, axis=1)[:h, :w]
-
-
-def _even(n, down=False):
-    n = int(n)
-    return n - n % 2 if down else n + n % 2
+        mean = np.repeat(np.repeat(per_block, BLOCK, axis=0), BLOCK, axis=1)[:h, :w]
+        counts = np.floor(mean) + (mean - np.floor(mean) > self.dither)
+        return np.maximum(counts, self.taken).astype(np.uint32)
 
 
 def render_adaptive(passes, args, target, max_spp, exposure, progress, status, out, sobol, features=None, film=None):

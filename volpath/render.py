@@ -62,7 +62,7 @@ def render(
     target_error  render to this error instead of a sample count: the RMS error of the
                displayed image in display units 0..1 (0.01: 1 % of the display's range;
                volpath/adaptive.py defines it and its estimate from two independent
-               half-buffers). 8x8 blocks take samples in rounds, the noisiest first;
+               half-buffers). 8x8 blocks take samples in rounds, the noisier more;
                ``spp`` is then the cap per pixel (default 1024). scene.last_render holds
                the achieved estimate ("error") and the samples taken (spp_mean, spp_min,
                spp_max)
