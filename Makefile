@@ -12,7 +12,7 @@ PY_NEEDS := $(shell $(PYTHON) -c "import ensurepip, venv" 2>/dev/null || echo py
             $(shell $(PYTHON) -c "import sysconfig, os, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()['include'], 'Python.h')))" 2>/dev/null || echo python3-dev)
 NATIVE_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h' -o -name CMakeLists.txt) pyproject.toml
 SUNRISE_BLEND := scenes/sunrise/sunrise.blend
-SPP ?= 16
+SPP ?= 40
 TARGET ?= 0.03
 DENOISE ?= --denoise
 RES ?= 320x180
