@@ -69,8 +69,11 @@ class Adaptive:
         self.block_variance = np.full((self.blocks_y, self.blocks_x), np.inf)
 
     def image(self):
-        n = np.maximum(self.taken, 1)[..., None]
-        return (self.halves.sum(axis=2) / n).astype(np.float32)
+        return self._mean().astype(np.float32)
+
+    def _mean(self):
+        """Each pixel's mean over its samples (float64)."""
+        return self.halves.sum(axis=2) / np.maximum(self.taken, 1)[..., None]
 
     def _per_block(self, a):
         """Sum of a per-pixel array over each block: (blocks_y, blocks_x)."""
@@ -85,8 +88,7 @@ class Adaptive:
         n = self.taken.astype(np.float64)
         n_a, n_b = np.maximum(np.ceil(n / 2), 1), np.maximum(np.floor(n / 2), 1)
         a, b = self.halves[:, :, 0] / n_a[..., None], self.halves[:, :, 1] / n_b[..., None]
-        image = self.halves.sum(axis=2) / np.maximum(n, 1)[..., None]
-        exposure = auto_exposure(image) if self.exposure is None else self.exposure
+        exposure = auto_exposure(self._mean()) if self.exposure is None else self.exposure
         difference = np.mean((display(a, exposure) - display(b, exposure)) ** 2, axis=2)
         per_sample = difference / (1 / n_a + 1 / n_b)  # Var(A - B) = sigma^2 (1/n_a + 1/n_b)
         self.block_variance = self._per_block(per_sample) / self.block_pixels
@@ -103,20 +105,22 @@ class Adaptive:
         sigma = np.sqrt(self.block_variance)
         weight = self.block_pixels / self.block_pixels.sum()
 
-        def squared_error(k):
-            with np.errstate(invalid="ignore"):  # inf * 0: a black block, which needs none
-                counts = np.clip(np.nan_to_num(k * sigma), n, self.max_spp)
-            return float(np.sum(weight * self.block_variance / counts))
+        def squared_error(counts):
+            return np.sum(weight * self.block_variance / counts)
 
-        if squared_error(np.inf) >= self.target**2:  # every noisy block to the cap
-            return np.where(sigma > 0, float(self.max_spp), n)
+        def counts(k):
+            return np.clip(k * sigma, n, self.max_spp)
+
+        capped = np.where(sigma > 0, float(self.max_spp), n)  # a black block needs none
+        if squared_error(capped) >= self.target**2:  # every noisy block to the cap
+            return capped
         lo, hi = 0.0, 1.0
-        while squared_error(hi) > self.target**2:
+        while squared_error(counts(hi)) > self.target**2:
             lo, hi = hi, 2 * hi
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if squared_error(mid) > self.target**2 else (lo, mid)
-        return np.clip(hi * sigma, n, self.max_spp)
+            lo, hi = (mid, hi) if squared_error(counts(mid)) > self.target**2 else (lo, mid)
+        return counts(hi)
 
     def next_counts(self):
         """Samples each pixel takes in the next round (uint32), and the samples every
