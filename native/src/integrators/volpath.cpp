@@ -74,6 +74,12 @@ constexpr Real kShareKept = 0.1, kShareSurvival = 0.05;
 // is narrow, the map piecewise constant): kMieLobeSamples directions of the lobe estimate it,
 // without bias, from the map alone.
 constexpr int kMieLobeSamples = 2;
+// The map's light a surface's bounce brings back from the air, integrated against the BSDF
+// (Path::add_sky_model_integral): estimated from this many stratified BSDF directions.
+constexpr int kSurfaceMapSamples = 4;
+// Shifts the second coordinate of stratified samples (the golden ratio's fraction: a
+// rank-1 lattice with the first).
+constexpr Real kLatticeShift = 0.6180339887498949;
 const SkyMap *sky_map_of(const Medium &m) {
     const AtmosphereMedium *air = guided_air(m);
     return air ? air->sky_map.get() : nullptr;
@@ -314,6 +320,19 @@ namespace {
 constexpr int kCollideBranches = 4;
 constexpr int kMaxCameraSplits = 8;
 
+// The sky map's light arriving at a surface's point from directions that stay in the air it
+// reflects into (none from the others): the model of Path::add_sky_model_integral.
+struct SurfaceSky {
+    const SkyMap *map;
+    SkyMap::Point at;
+    const ShapeInfo *shape;
+    Vec3 n;
+    int medium;
+    Spectrum arriving(const Vec3 &d) const {
+        return medium_after_crossing(*shape, d, n, medium) == medium ? map->radiance(at, d) : Spectrum(0.0);
+    }
+};
+
 // Which part of a camera ray's medium segment a path estimates (see above).
 enum class Branch { All, PassThrough, Collide };
 
@@ -391,6 +410,8 @@ struct Path {
     bool roulette_by_share(const Spectrum &arriving);
     Real share_of_sample(const Spectrum &M) const;
     bool roulette_toward_sky(bool hit, const Intersection &its);
+    std::optional<SurfaceSky> add_sky_model_integral(const ShapeInfo &shape, const Intersection &its, const BSDF &bsdf,
+                                                     const Frame &frame, const Vec3 &wi);
     bool roulette();
     Spectrum direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
                               const SegmentVertex *vertex, const SkyPoint *sky = nullptr);
@@ -596,7 +617,7 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
         Spectrum mie_integral(0.0);
         for (int k = 0; k < kMieLobeSamples; ++k) {
             const Real mu = hg_sample_mu(air.g, (k + u.x) / kMieLobeSamples), sin_theta = safe_sqrt(1 - mu * mu);
-            const Real phi = 2 * kPi * std::fmod(u.y + k * 0.6180339887498949, 1.0);
+            const Real phi = 2 * kPi * std::fmod(u.y + k * kLatticeShift, 1.0);
             const Vec3 w = forward.to_world({sin_theta * std::cos(phi), sin_theta * std::sin(phi), mu});
             mie_integral += map->radiance(sky->at, w) * (cornette_shanks_eval(air.g, mu) / hg_eval(air.g, mu));
         }
@@ -661,6 +682,36 @@ bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
         (hit && !leaves_for_empty_space(hit, its)))
         return true;
     return roulette_after_sky_model(map->radiance(map->at(ray.o), ray.d), kSurfaceSkySurvival);
+}
+
+// Where the map models what a surface's bounce brings back from the air (the sun alone, the
+// bounce into the air the map is of), it is a control variate for the bounce: its integral
+// against the BSDF is added here, estimated from kSurfaceMapSamples stratified BSDF
+// directions, and at_surface takes off its value in the direction the path then takes, from
+// which the path brings what truly arrives (roulette_toward_sky adds the value back where it
+// ends the path before the air). Added before the path's own direction is drawn, which may
+// fail (below a glossy surface's horizon): the value taken off counts that failure as the
+// integral's samples do. Under an open sky the bounce's noise is then the map's error alone,
+// not the sky's brightness over the directions (the sun's aureole, the horizon's band).
+std::optional<SurfaceSky> Path::add_sky_model_integral(const ShapeInfo &shape, const Intersection &its,
+                                                       const BSDF &bsdf, const Frame &frame, const Vec3 &wi) {
+    if (medium < 0 || !feat.nee || !scene.sun_alone_under_mis || is_delta(bsdf) ||
+        (feat.max_depth >= 0 && depth + 2 >= feat.max_depth))
+        return std::nullopt;
+    const SkyMap *map = sky_map_of(scene.media[medium]);
+    if (!map || !map->models_light) return std::nullopt;
+    const SurfaceSky sky{map, map->at(its.p), &shape, its.n, medium};
+    const Vec2 u = sampler.next_2d();
+    const Real u_lobe = sampler.next_1d();
+    Spectrum integral(0.0);
+    for (int k = 0; k < kSurfaceMapSamples; ++k) {
+        const Vec2 u_k{(k + u.x) / kSurfaceMapSamples, std::fmod(u.y + k * kLatticeShift, 1.0)};
+        BSDFSample s;
+        if (bsdf_sample(bsdf, wi, std::fmod(u_lobe + Real(k) / kSurfaceMapSamples, 1.0), u_k, s))
+            integral += s.weight * sky.arriving(frame.to_world(s.wo));
+    }
+    L += beta * integral / (kSurfaceMapSamples * average(r_u));
+    return sky;
 }
 
 // Where the map's prediction of what the path brings back, M, is no control variate (local
@@ -972,9 +1023,11 @@ Step Path::at_surface(const Intersection &its) {
             [&](const Vec3 &d) { return Spectrum(bsdf_pdf(bsdf, wi, frame.to_local(d))); });
         if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return Step::Ended;
     }
+    const std::optional<SurfaceSky> sky = add_sky_model_integral(shape, its, bsdf, frame, wi);
     BSDFSample bs;
     if (!bsdf_sample(bsdf, wi, sampler.next_1d(), sampler.next_2d(), bs)) return Step::Ended;
     const Vec3 wo = frame.to_world(bs.wo);
+    if (sky) L -= beta * bs.weight * sky->arriving(wo) / average(r_u);
     beta *= bs.weight;
     specular_bounce = bs.delta;
     ray_kind = bs.wo.z * wi.z < 0 ? RayKind::Transmission : bs.diffuse ? RayKind::Diffuse : RayKind::Glossy;
