@@ -60,12 +60,10 @@ const AtmosphereMedium *guided_air(const Medium &m) {
 // probability, else from the phase function; less where the map is also a control variate
 // (below): its model then does most of the work that the directions drawn from it would.
 constexpr Real kSkyMapShareGuide = 0.5, kSkyMapShareModel = 0.1;
-// Russian roulette at scattering events in the air from kSkyRouletteDepth on, where the sky
-// map predicts what the path brings back: survival kSkyRouletteSurvival, and the map's
-// prediction as a control variate (see scatter_in_medium): the walks are cut short, the
-// prediction carries their rest.
+// Russian roulette at every scattering event in the air where the sky map predicts what the
+// path brings back: survival kSkyRouletteSurvival, and the map's prediction as a control
+// variate (see scatter_in_medium): the walks are cut short, the prediction carries their rest.
 constexpr Real kSkyRouletteSurvival = 0.55;
-constexpr int kSkyRouletteDepth = 2;
 // The same roulette for a surface's bounce that escapes to the sky (Path::roulette_toward_sky).
 constexpr Real kSurfaceSkySurvival = 0.3;
 // Roulette by the map's predicted share of the sample (Path::roulette_by_share).
@@ -642,7 +640,7 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
     ray_kind = RayKind::Scatter;
     null_crossings = 0;
     ray = Ray{p, ps.d_out, 0, kInfinity};
-    if (sky_model) return depth < kSkyRouletteDepth || roulette_after_sky_model(arriving, kSkyRouletteSurvival);
+    if (sky_model) return roulette_after_sky_model(arriving, kSkyRouletteSurvival);
     return map && feat.nee ? roulette_by_share(map->radiance(sky->at, ps.d_out)) : roulette();
 }
 
