@@ -304,8 +304,11 @@ namespace {
 
 // The camera's ray, until its path first scatters, is split on the scattering media it
 // crosses into two estimates that add up to the usual one: a branch that crosses the
-// medium's segment without a tentative collision (weighted by that probability, T_maj) and
-// branches forced to collide in it (weighted by 1 - T_maj). Plain free flight would pick
+// medium's segment, weighted by its transmittance T (exact in homogeneous media, by
+// residual ratio tracking in grids), and branches forced to a first tentative collision in
+// it (weighted by 1 - T_maj) that count only real collisions: where delta tracking from
+// there crosses the segment, the branch ends (in a sparse grid, most do; carried on, each
+// would repeat the first branch's path beyond the segment). Plain free flight would pick
 // one of the two at random and spend the pixel's samples on whichever the draw favoured: a
 // bank of fog half transparent to the camera is then noise between what lies behind it and
 // the light it scatters. Grids are split wherever the camera ray meets them, with
@@ -849,13 +852,16 @@ Step Path::fly_through_medium(Real t_end) {
     const Spectrum r_start = r_u;
     if (branch != Branch::All) {
         const Spectrum tau = majorant_optical_depth(m, ray, t_end);
-        if (pass_through) {
+        if (pass_through && !h) {
+            beta *= ratio_tracking(m, ray, t_end, channel, sampler, /*residual=*/true);
+            if (is_black(beta)) return Step::Ended;
+        } else if (pass_through) {
             const Spectrum T_maj = exp(-tau);
             const Real pdf = T_maj[channel];
             if (!(pdf > 0)) return Step::Ended;
             beta *= T_maj;  // the branch always runs: weighted by the event's probability
             r_u *= T_maj / pdf;
-            scale_r_l(h ? Spectrum(1 / pdf) : T_maj / pdf);
+            scale_r_l(Spectrum(1 / pdf));
         } else {
             forced = -std::expm1(-tau[channel]);
             if (!(forced > 0)) return Step::Ended;
@@ -908,7 +914,7 @@ Step Path::fly_through_medium(Real t_end) {
                 // (Grey coefficients only: the channels' densities then agree, and the MIS
                 // weights with them.)
                 const bool gathered = nee_at_tentative && !last_vertex() && is_grey(sigma_maj) && is_grey(sigma_t);
-                if (gathered) {
+                if (gathered && !is_black(mp.sigma_s)) {  // (empty voxels under a majorant cell's peak)
                     const Real pdf = T_seg[channel] * sigma_maj[channel];
                     L += direct_in_medium(p, medium_phase(m, p), beta * T_seg * mp.sigma_s / pdf,
                                           r_u * T_seg * sigma_maj / pdf, nullptr);
@@ -954,7 +960,7 @@ Step Path::fly_through_medium(Real t_end) {
                 return !is_black(beta);
             },
             forced, true, nullptr, forced > 0 ? (stratum + sampler.next_1d()) / strata : -1);
-        if (terminated) return Step::Ended;
+        if (terminated || (forced > 0 && !scattered)) return Step::Ended;  // (see Branch)
         if (scattered) return Step::NewRay;
         // No collision before t_end. Homogeneous media are crossed by shadow rays in
         // closed form, so the light strategy's density does not include T there.
