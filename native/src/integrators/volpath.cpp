@@ -312,12 +312,13 @@ namespace {
 // one of the two at random and spend the pixel's samples on whichever the draw favoured: a
 // bank of fog half transparent to the camera is then noise between what lies behind it and
 // the light it scatters. Grids are split wherever the camera ray meets them, with
-// kCollideBranches forced collisions in strata, their segments' only NEE. Homogeneous media and the
-// air only where the camera stands in them, with one: a homogeneous segment draws
-// distances for its lights whether or not free flight collides (segment_direct), and a
-// segment of air farther on is cut at the shapes' sun shadows (fly_through_air), its
-// collisions dear. At most kMaxCameraSplits splits per camera ray (measurements:
-// bench/RESULTS.md, "Constants chosen by measurement").
+// kCollideBranches forced collisions in strata, their segments' only NEE; the air too, on
+// each piece that fly_through_air cuts at the shapes' sun shadows, with one (beyond the
+// shadows the sky's control variates hold: the forced collision's estimate is then the
+// map's error alone, not the coin toss of colliding at all); other media only where the
+// camera stands in them, with one (a homogeneous segment draws distances for its
+// lights whether or not free flight collides: segment_direct). At most kMaxCameraSplits
+// splits per camera ray (measurements: bench/RESULTS.md, "Constants chosen by measurement").
 constexpr int kCollideBranches = 4;
 constexpr int kMaxCameraSplits = 8;
 
@@ -377,8 +378,8 @@ struct Path {
     std::optional<SegmentVertex> scattered_at;
     Spectrum r_ld{0.0};
     // The camera ray's medium segments: the one the path is in (counted at each change of
-    // medium), the last one split, and whether this path may split (the forced collisions'
-    // branches do not: one split per segment and sample).
+    // medium and each cut of the air), the last one split, and whether this path may split
+    // (the forced collisions' branches do not: one split per segment and sample).
     int segment = 0, split_at = -1;
     bool may_split = true;
     // A forced branch's index among its segment's: the stratum of the collision
@@ -462,7 +463,7 @@ bool Path::splits_segment() const {
         !feat.scatter)
         return false;
     const Medium &m = scene.media[medium];
-    if (!std::holds_alternative<GridMedium>(m) && segment != 0) return false;
+    if (segment != 0 && !std::holds_alternative<GridMedium>(m) && !guided_air(m)) return false;
     const auto *h = std::get_if<HomogeneousMedium>(&m);
     return !(h && is_black(h->sigma_s));
 }
@@ -761,6 +762,7 @@ Step Path::fly_through_air(bool hit, const Intersection &its, Real t_end) {
     if (flight == Flight::Scattered) return Step::NewRay;
     if (cut) {
         ray.t_min = t_piece;
+        ++segment;
         return Step::NewRay;
     }
     return Step::Reached;
