@@ -803,8 +803,12 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
     // until free flight has chosen to collide (most short segments between shapes do not).
     const AtmosphereMedium &air = *guided_air(m);
     const bool guide_now = branch == Branch::Collide || (branch == Branch::All && light_model);
+    // Where shapes may shadow the air, the models still bound what a collision could gather
+    // (they ignore those shadows): see below.
+    const bool predicted =
+        !clear && scene.sun_alone_under_mis && feat.nee && map && map->models_light && !last_vertex();
     AirSegment seg;
-    if (guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), map_model ? map : nullptr);
+    if (guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), map_model || predicted ? map : nullptr);
     const Spectrum tau = guide_now ? seg.optical_depth(t_end) : air_optical_depth(air, ray, t_end), T = exp(-tau);
     Real p_collide = branch == Branch::Collide ? 1 : 0;
     if (branch == Branch::All) {
@@ -825,8 +829,21 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
     branch = Branch::All;
     if (collide) {
         Real t, pdf;
-        if (!guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide());
-        if (last_vertex() || !seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
+        if (!guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), predicted ? map : nullptr);
+        if (last_vertex()) return Flight::Ended;
+        // A collision in shadowed air pays for NEE through the shapes before roulette_by_share
+        // can end its walk: the camera's forced collisions in the few hundred metres of air
+        // around it, which gather a few per cent of what the sky beyond or the terrain shows.
+        // Roulette first, by the share the models predict for the collision.
+        if (predicted && seg.models_light) {
+            const Spectrum M = beta * seg.light_integral() / (p_event * average(r_u));
+            const Real q = std::max(share_of_sample(M) / kShareKept, kShareSurvival);
+            if (q < 1) {
+                if (!(sampler.next_1d() < q)) return Flight::Ended;
+                beta /= q;
+            }
+        }
+        if (!seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
         const Vec3 p = ray.at(t);
         if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));
         beta *= seg.transmittance(t) * medium_properties(m, p).sigma_s / (pdf * p_event);
