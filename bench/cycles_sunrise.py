@@ -208,7 +208,7 @@ def VARIANTS(volpath_render, cycles_render):
     """(row, renderer, render(setting, seed, **kw), ladder, kw): fixed spp, rendering to a
     target error, and denoising, for both renderers where they have it."""
     return (
-        ("Volpath", "Volpath", volpath_render, (4, 16, 64), {}),
+        ("Volpath", "Volpath", volpath_render, (2, 4, 16, 64), {}),
         ("Volpath, target error", "Volpath", volpath_render, (0.04, 0.02, 0.01), {"target_error": True}),
         ("Volpath, denoised", "Volpath", volpath_render, (1, 4, 16), {"denoise": True}),
         (

@@ -870,21 +870,23 @@ Step Path::fly_through_medium(Real t_end) {
     if (segment_nee) segment_direct(m, *h, t_end);
     const Spectrum r_start = r_u;
     if (branch != Branch::All) {
-        const Spectrum tau = majorant_optical_depth(m, ray, t_end);
         if (pass_through && !h) {
             beta *= ratio_tracking(m, ray, t_end, channel, sampler, /*residual=*/true);
             if (is_black(beta)) return Step::Ended;
-        } else if (pass_through) {
-            const Spectrum T_maj = exp(-tau);
-            const Real pdf = T_maj[channel];
-            if (!(pdf > 0)) return Step::Ended;
-            beta *= T_maj;  // the branch always runs: weighted by the event's probability
-            r_u *= T_maj / pdf;
-            scale_r_l(Spectrum(1 / pdf));
         } else {
-            forced = -std::expm1(-tau[channel]);
-            if (!(forced > 0)) return Step::Ended;
-            beta *= forced;
+            const Spectrum tau = majorant_optical_depth(m, ray, t_end);
+            if (pass_through) {
+                const Spectrum T_maj = exp(-tau);
+                const Real pdf = T_maj[channel];
+                if (!(pdf > 0)) return Step::Ended;
+                beta *= T_maj;  // the branch always runs: weighted by the event's probability
+                r_u *= T_maj / pdf;
+                scale_r_l(Spectrum(1 / pdf));
+            } else {
+                forced = -std::expm1(-tau[channel]);
+                if (!(forced > 0)) return Step::Ended;
+                beta *= forced;
+            }
         }
         branch = Branch::All;
     }
@@ -979,7 +981,7 @@ Step Path::fly_through_medium(Real t_end) {
                 return !is_black(beta);
             },
             forced, true, nullptr, forced > 0 ? (stratum + sampler.next_1d()) / strata : -1);
-        if (terminated || (forced > 0 && !scattered)) return Step::Ended;  // (see Branch)
+        if (terminated || (forced > 0 && !scattered)) return Step::Ended;  // (see kCollideBranches)
         if (scattered) return Step::NewRay;
         // No collision before t_end. Homogeneous media are crossed by shadow rays in
         // closed form, so the light strategy's density does not include T there.
