@@ -157,6 +157,8 @@ template <typename Eval, typename Pdf>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface, int medium,
                        const Spectrum &beta, const Spectrum &r_p, int channel, bool mis, Sampler &sampler, Eval &&eval,
                        Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
+    // No weight (an empty voxel under a majorant cell's peak): no shadow ray to pay for.
+    if (is_black(beta)) return Spectrum(0.0);
     const bool toward_light = vertex && vertex->light >= 0, collision = vertex && !toward_light;
     int light = toward_light ? vertex->light : -1;
     Real select = toward_light ? segment_light_select_pdf(scene) : 0;
@@ -411,6 +413,8 @@ struct Path {
     bool roulette_after_sky_model(const Spectrum &arriving, Real survival);
     bool roulette_by_share(const Spectrum &arriving);
     Real share_of_sample(const Spectrum &M) const;
+    Real share_survival(const Spectrum &M) const;
+    bool survive(Real q);
     bool roulette_toward_sky(bool hit, const Intersection &its);
     std::optional<SurfaceSky> add_sky_model_integral(const ShapeInfo &shape, const Intersection &its, const BSDF &bsdf,
                                                      const Frame &frame, const Vec3 &wi);
@@ -723,17 +727,22 @@ std::optional<SurfaceSky> Path::add_sky_model_integral(const ShapeInfo &shape, c
 // kShareSurvival. Cuts the camera's forced collisions in a few metres of air before
 // terrain: their walks weigh ~1e-4 of what the terrain shows.
 bool Path::roulette_by_share(const Spectrum &arriving) {
-    const Real q = std::max(share_of_sample(beta * arriving / average(r_u)) / kShareKept, kShareSurvival);
-    if (q >= 1) return roulette();
-    if (!(sampler.next_1d() < q)) return false;
-    beta /= q;
-    return true;
+    const Real q = share_survival(beta * arriving / average(r_u));
+    return q >= 1 ? roulette() : survive(q);
 }
+
+// The survival probability above for light M still to come, on the sample's scale.
+Real Path::share_survival(const Spectrum &M) const { return std::max(share_of_sample(M) / kShareKept, kShareSurvival); }
 
 // Russian roulette on the channel-averaged throughput.
 bool Path::roulette() {
     if (depth < config.rr_depth) return true;
-    const Real q = std::min(max_component(beta / average(r_u)), kMaxSurvival);
+    return survive(std::min(max_component(beta / average(r_u)), kMaxSurvival));
+}
+
+// Goes on with probability q (surely where q >= 1), beta weighted to match.
+bool Path::survive(Real q) {
+    if (q >= 1) return true;
     if (!(sampler.next_1d() < q)) return false;
     beta /= q;
     return true;
@@ -835,14 +844,9 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
         // can end its walk: the camera's forced collisions in the few hundred metres of air
         // around it, which gather a few per cent of what the sky beyond or the terrain shows.
         // Roulette first, by the share the models predict for the collision.
-        if (predicted && seg.models_light) {
-            const Spectrum M = beta * seg.light_integral() / (p_event * average(r_u));
-            const Real q = std::max(share_of_sample(M) / kShareKept, kShareSurvival);
-            if (q < 1) {
-                if (!(sampler.next_1d() < q)) return Flight::Ended;
-                beta /= q;
-            }
-        }
+        if (predicted && seg.models_light &&
+            !survive(share_survival(beta * seg.light_integral() / (p_event * average(r_u)))))
+            return Flight::Ended;
         if (!seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
         const Vec3 p = ray.at(t);
         if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));
@@ -935,7 +939,7 @@ Step Path::fly_through_medium(Real t_end) {
                 // (Grey coefficients only: the channels' densities then agree, and the MIS
                 // weights with them.)
                 const bool gathered = nee_at_tentative && !last_vertex() && is_grey(sigma_maj) && is_grey(sigma_t);
-                if (gathered && !is_black(mp.sigma_s)) {  // (empty voxels under a majorant cell's peak)
+                if (gathered) {
                     const Real pdf = T_seg[channel] * sigma_maj[channel];
                     L += direct_in_medium(p, medium_phase(m, p), beta * T_seg * mp.sigma_s / pdf,
                                           r_u * T_seg * sigma_maj / pdf, nullptr);
