@@ -158,9 +158,9 @@ def test_delta_tracking_agrees_whatever_the_majorant(tmp_path):
 
 
 def test_forced_collisions_nee_agrees_with_delta_tracking(tmp_path):
-    """The camera's forced collisions in a grid of grey density take their NEE whatever the
-    real-or-null choice (weighted by sigma_s / sigma_maj); a density that is not quite grey
-    (the third channel 1e-7 denser) keeps the NEE with the choice. Same medium, same image:
+    """The camera's forced branches in a grid of grey density take NEE at each tentative
+    collision whatever the real-or-null choice (weighted by sigma_s / sigma_maj); a density
+    that is not quite grey (the third channel 1e-7 denser) keeps the NEE with the choice. Same medium, same image:
     emission, an absorbing albedo, a sun, an area light and a sky behind, under one global
     majorant (most collisions null) and under local ones."""
     from volpath.grids import write_vol

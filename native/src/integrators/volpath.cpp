@@ -924,12 +924,13 @@ Step Path::fly_through_medium(Real t_end) {
         r_u *= T_maj / pdf;
     } else if (!pass_through) {
         bool scattered = false, terminated = false;
-        // A grid's forced collision takes its NEE whatever the real-or-null choice, weighted
-        // by sigma_s / sigma_maj instead of drawn with probability sigma_t / sigma_maj: the
-        // light a fog bank scatters toward the camera is then no longer a coin toss at each
-        // of the camera's forced collisions. Phase sampling from there still follows the
-        // choice, which weights it by sigma_s / sigma_maj on average too, as MIS expects.
-        bool nee_at_tentative = forced > 0 && feat.nee && std::holds_alternative<GridMedium>(m);
+        // A grid's forced branch takes NEE at each of its tentative collisions whatever the
+        // real-or-null choice, weighted by sigma_s / sigma_maj instead of drawn with
+        // probability sigma_t / sigma_maj: the light a fog bank scatters toward the camera
+        // is then no longer a coin toss at each collision along the camera's ray. Phase
+        // sampling from there still follows the choice, which weights it by
+        // sigma_s / sigma_maj on average too, as MIS expects.
+        const bool nee_at_tentative = forced > 0 && feat.nee && std::holds_alternative<GridMedium>(m);
         ChoiceChain real_or_null;
         const Spectrum T_maj = sample_T_maj(
             m, ray, t_end, channel, sampler,
@@ -944,7 +945,6 @@ Step Path::fly_through_medium(Real t_end) {
                     L += direct_in_medium(p, medium_phase(m, p), beta * T_seg * mp.sigma_s / pdf,
                                           r_u * T_seg * sigma_maj / pdf, nullptr);
                 }
-                nee_at_tentative = false;
                 // Real or null collision, in proportion to sigma_t : sigma_n in the
                 // sampling channel. Absorption is not sampled: it weights beta. All the
                 // segment's choices come from one uniform (ChoiceChain): the segment is
