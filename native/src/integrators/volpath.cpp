@@ -369,6 +369,7 @@ struct Path {
     int depth = 0;                       // real scattering events so far
     bool specular_bounce = true;         // the camera counts as specular: nothing to MIS with
     RayKind ray_kind = RayKind::Camera;  // what the current ray was traced for
+    bool scattered_in_air = false;       // the current ray's, if a Scatter ray: its event was in the air
     // After a bounce, where a light hides from some lobes (Scene::lights_hide_lobes): the
     // share of the BSDF value in the ray's direction from its diffuse lobe.
     Spectrum diffuse_share{0.0};
@@ -646,6 +647,7 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
     prev_p = p;
     specular_bounce = false;
     ray_kind = RayKind::Scatter;
+    scattered_in_air = map != nullptr;
     null_crossings = 0;
     ray = Ray{p, ps.d_out, 0, kInfinity};
     if (sky_model) return roulette_after_sky_model(arriving, kSkyRouletteSurvival);
@@ -677,12 +679,14 @@ bool Path::roulette_after_sky_model(const Spectrum &arriving, Real survival) {
     return true;
 }
 
-// A ray off a surface that meets no shape but the air's top brings back the sky, which the
-// map predicts where the sun alone lights the scene: roulette with that prediction as a
-// control variate, as after scattering in the air, from the first bounce on (terrain's sky
-// light is mostly its first bounce's). Before the flight through the air, where the cost is.
+// A ray off a surface, or scattered in a medium other than the air (a fog bank in it), that
+// meets no shape but the air's top brings back the sky, which the map predicts where the sun
+// alone lights the scene: roulette with that prediction as a control variate, as after
+// scattering in the air, from the first bounce on (terrain's sky light is mostly its first
+// bounce's). Before the flight through the air, where the cost is.
 bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
-    if (medium < 0 || specular_bounce || !(uint8_t(ray_kind) & kLobeRays) || !scene.sun_alone_under_mis) return true;
+    const bool bounced = (uint8_t(ray_kind) & kLobeRays) || (ray_kind == RayKind::Scatter && !scattered_in_air);
+    if (medium < 0 || specular_bounce || !bounced || !scene.sun_alone_under_mis) return true;
     const SkyMap *map = sky_map_of(scene.media[medium]);
     if (!map || !map->models_light || !feat.nee || (feat.max_depth >= 0 && depth + 2 >= feat.max_depth) ||
         (hit && !leaves_for_empty_space(hit, its)))
