@@ -511,25 +511,27 @@ def test_guided_transmittance_error():
 def test_guided_collision_density_matches_its_samples():
     """Sampler/pdf consistency: t(u) is the inverse of the density's integral, so its
     derivative is 1 / pdf (central differences, 0.5 %), t grows with u and stays on the
-    segment; checked on rays up, along the horizon, down to the ground and from space
-    through the limb."""
+    segment; checked on rays up, along the horizon, down to the ground, from space through
+    the limb, and 500 m of level air (modelled by its two ends)."""
     scene = air_scene(lights='<emitter type="sun"><float name="elevation" value="2"/></emitter>')
     cases = [
-        ((0.0, 2.0, 0.0), 10),
-        ((0.0, 2.0, 0.0), 0),
-        ((0.0, 5e3, 0.0), -20),
-        ((0.0, 1e3, 0.0), -1),
-        ((0.0, 70e3, -2000e3), -1.5),
+        ((0.0, 2.0, 0.0), 10, 1e9),
+        ((0.0, 2.0, 0.0), 0, 1e9),
+        ((0.0, 5e3, 0.0), -20, 1e9),
+        ((0.0, 1e3, 0.0), -1, 1e9),
+        ((0.0, 70e3, -2000e3), -1.5, 1e9),
+        ((0.0, 30.0, 0.0), -1, 500.0),
     ]
     u = np.linspace(0.001, 0.999, 999)
     h = 1e-5
-    for o, elevation in cases:
+    for o, elevation, t_max in cases:
         e = math.radians(elevation)
         d = (0.0, math.sin(e), math.cos(e))
-        _, t, pdf = _core.air_segment(scene.native, 0, o, d, 1e9, np.array([0.0]), u)
-        _, t_lo, _ = _core.air_segment(scene.native, 0, o, d, 1e9, np.array([0.0]), u - h)
-        _, t_hi, _ = _core.air_segment(scene.native, 0, o, d, 1e9, np.array([0.0]), u + h)
+        _, t, pdf = _core.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u)
+        _, t_lo, _ = _core.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u - h)
+        _, t_hi, _ = _core.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u + h)
         assert np.all(np.isfinite(t)) and np.all(pdf > 0) and np.all(np.diff(t) > 0), (o, elevation)
+        assert np.all(t <= t_max), (o, elevation)
         assert np.allclose((t_hi - t_lo) / (2 * h) * pdf, 1, rtol=5e-3), (o, elevation)
 
 

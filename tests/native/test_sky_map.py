@@ -121,11 +121,18 @@ def test_rayleigh_integral_is_the_maps_integral(p, d_in):
 @pytest.mark.parametrize("elevation", [-2.0, 2.0, 30.0])
 def test_segment_light_integral_is_the_models_integral(with_map, elevation):
     """The segment's control variate adds light_integral(): the exact integral of
-    light_model(t), exponential (or linear) between nodes, here by trapezoids."""
+    light_model(t), exponential (or linear) between nodes, here by trapezoids; on rays up,
+    down, and one that stays level (500 m falling 10 m: modelled by its two ends)."""
     scene = sky(elevation=elevation)
-    for o, d in (((0, 2, 0), (0.3, 0.05, -1)), ((0, 1500, 0), (0, -0.2, -1)), ((0, 8000, 0), (0.2, 1, 0.1))):
-        t = np.linspace(0, 2e6, 400_001)
-        values, integral = _core.air_light_model(scene.native, 0, o, d, 2e6, t, with_map)
+    rays = (
+        ((0, 2, 0), (0.3, 0.05, -1), 2e6),
+        ((0, 1500, 0), (0, -0.2, -1), 2e6),
+        ((0, 8000, 0), (0.2, 1, 0.1), 2e6),
+        ((0, 30, 0), (1, -0.02, 0), 500.0),
+    )
+    for o, d, t_max in rays:
+        t = np.linspace(0, t_max, 400_001)
+        values, integral = _core.air_light_model(scene.native, 0, o, d, t_max, t, with_map)
         numeric = np.trapz(values, t, axis=0)
         assert np.all(values >= 0) and np.all(np.isfinite(values))
         assert np.allclose(integral, numeric, rtol=1e-4, atol=1e-12 * np.max(integral)), (o, d, integral, numeric)

@@ -201,10 +201,17 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     if (!sphere_roots(m.center, m.top_radius, ray.o, ray.d, r0, r1)) return s;
     const Real a = std::max(ray.t_min, r0), b = std::min(t_max, r1);
     if (!(a < b)) return s;
-    // Intervals on each side of the lowest point in proportion to the side's length.
-    constexpr int K = AirSegment::kNodes - 1;
+    // Intervals on each side of the lowest point in proportion to the side's length. A
+    // segment that stays level (within kLevelSpan of the thinner scale height) has nearly
+    // constant densities and sunlight along it, the light exponential with T: its two ends
+    // model it (the camera's few hundred metres of air before the terrain, most bounces).
+    constexpr Real kLevelSpan = 0.05;
     const Real tc = std::clamp(dot(m.center - ray.o, ray.d), a, b);
-    const int left = tc == a ? 0 : tc == b ? K : std::clamp(int(std::lround(K * (tc - a) / (b - a))), 1, K - 1);
+    const Real span = std::max(m.altitude(ray.at(a)), m.altitude(ray.at(b))) - m.altitude(ray.at(tc));
+    const int K = span < kLevelSpan * std::min(m.mie_height, m.rayleigh_height) ? 1 : AirSegment::kNodes - 1;
+    const int left = K == 1 || tc == a ? 0
+                     : tc == b         ? K
+                                       : std::clamp(int(std::lround(K * (tc - a) / (b - a))), 1, K - 1);
     // Free flight and the sun's single scattering at the nodes, each normalised below.
     const Real mu = sun ? dot(ray.d, sun->to_sun) : 0;
     const Real p_rayleigh = rayleigh_eval(mu), p_mie = cornette_shanks_eval(m.mie_g, mu);
