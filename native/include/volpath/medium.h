@@ -146,11 +146,13 @@ struct SunGuide {
 //
 // Collisions are drawn from a piecewise-exponential density through kNodes nodes, spaced
 // quadratically away from the segment's lowest point (where the air is densest and
-// changes fastest), or through its two ends where it stays level. Node weights mix, half and half, free flight (sigma_t
-// T) and the sun's single scattering (sigma_s phase T T_sun): at sunrise the low air that free flight favours sees the
-// sun through an optical depth of tens, so collisions there add almost nothing to the image. Each part is normalised
-// per channel and averaged over channels (the balance heuristic over the channels' densities), so every channel is
-// covered. For the weights alone, T comes from the nodes (altitude taken as linear between them).
+// changes fastest), or through its two ends where it stays level. Node weights mix, half
+// and half, free flight (sigma_t T) and the sun's single scattering (sigma_s phase T T_sun):
+// at sunrise the low air that free flight favours sees the sun through an optical depth of
+// tens, so collisions there add almost nothing to the image. Each part is normalised per
+// channel and averaged over channels (the balance heuristic over the channels' densities),
+// so every channel is covered. For the weights alone, T comes from the nodes (altitude
+// taken as linear between them).
 //
 // The estimator's transmittance comes from the table of optical depths to the top
 // (AtmosphereMedium::tau_to_top): the depth from a to t along d is the difference of the
