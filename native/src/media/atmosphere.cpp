@@ -1,6 +1,7 @@
 // The atmosphere: its density profiles, the table of optical depths to the top, its
 // majorants and the guided free flight's segments (AirSegment).
 #include <algorithm>
+#include <utility>
 
 #include "media.h"
 #include "volpath/geometry.h"
@@ -79,10 +80,17 @@ void build_tau_table(AtmosphereMedium &m) {
     }
 }
 
+namespace {
+// The lowest and highest altitudes along [a, b] of a ray: at the point nearest the planet's
+// centre (clamped to the interval) and at the higher end.
+std::pair<Real, Real> altitude_range(const AtmosphereMedium &m, const Ray &ray, Real a, Real b) {
+    const Real t_closest = std::clamp(dot(m.center - ray.o, ray.d), a, b);
+    return {m.altitude(ray.at(t_closest)), std::max(m.altitude(ray.at(a)), m.altitude(ray.at(b)))};
+}
+}  // namespace
+
 Spectrum air_majorant(const AtmosphereMedium &m, const Ray &ray, Real a, Real b) {
-    const Real t_closest = dot(m.center - ray.o, ray.d);
-    const Real h_min = m.altitude(ray.at(std::clamp(t_closest, a, b)));
-    const Real h_max = std::max(m.altitude(ray.at(a)), m.altitude(ray.at(b)));
+    const auto [h_min, h_max] = altitude_range(m, ray, a, b);
     Real r, mie, o;
     m.densities(h_min, r, mie, o);
     // Ozone's tent peaks inside [h_min, h_max] or at the end nearer the peak.
@@ -207,8 +215,8 @@ AirSegment air_segment(const AtmosphereMedium &m, const Ray &ray, Real t_max, co
     // model it (the camera's few hundred metres of air before the terrain, most bounces).
     constexpr Real kLevelSpan = 0.05;
     const Real tc = std::clamp(dot(m.center - ray.o, ray.d), a, b);
-    const Real span = std::max(m.altitude(ray.at(a)), m.altitude(ray.at(b))) - m.altitude(ray.at(tc));
-    const int K = span < kLevelSpan * std::min(m.mie_height, m.rayleigh_height) ? 1 : AirSegment::kNodes - 1;
+    const auto [h_min, h_max] = altitude_range(m, ray, a, b);
+    const int K = h_max - h_min < kLevelSpan * std::min(m.mie_height, m.rayleigh_height) ? 1 : AirSegment::kNodes - 1;
     const int left = K == 1 || tc == a ? 0
                      : tc == b         ? K
                                        : std::clamp(int(std::lround(K * (tc - a) / (b - a))), 1, K - 1);
