@@ -19,7 +19,7 @@ RES ?= 320x180
 FRAMES ?= 1-72
 JOBS ?= 2
 
-.PHONY: all setup test lint format bench accuracy sunrise clean debian fuzz sanitize wheel extension
+.PHONY: all setup test lint format stubs bench accuracy sunrise clean debian fuzz sanitize wheel extension
 
 all: test
 
@@ -47,12 +47,18 @@ setup: debian $(VENV)/.native
 test: setup
 	$(VENV)/bin/pytest -n $(JOBS) --dist loadgroup -q tests
 
-# Style: ruff (lint and format, pyproject.toml) for Python, clang-format (.clang-format) for C++.
+# Style: ruff (lint and format, pyproject.toml) for Python, clang-format (.clang-format) for C++;
+# mypy for the public API's type hints (against the native module's stub, volpath/_core.pyi).
 CXX_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h')
 lint: debian $(VENV)/.requirements
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	clang-format --dry-run --Werror $(CXX_SOURCES)
+	$(VENV)/bin/mypy
+
+# volpath/_core.pyi, the native module's type stub, generated from the built module.
+stubs: setup
+	$(PY) tests/python/test_stubs.py --update
 
 format: debian $(VENV)/.requirements
 	$(VENV)/bin/ruff check --fix .
@@ -85,7 +91,7 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 # The self-contained manylinux wheel that the Blender extension bundles (dist/).
 wheel: setup
 	rm -rf dist && mkdir -p dist
-	$(PIP) wheel -q --no-build-isolation --no-deps -Cbuild-dir=build/wheel -w dist/raw .
+	$(PIP) wheel -q --no-build-isolation --no-deps -Cbuild-dir=build/wheel -Ccmake.define.VOLPATH_PROBES=OFF -w dist/raw .
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m auditwheel repair -w dist dist/raw/volpath-*.whl
 	rm -rf dist/raw && ls dist
 

@@ -4,6 +4,10 @@ passes as ``view_layer.volpath``."""
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
+from volpath import TracerConfig
+
+DEFAULTS = TracerConfig()  # the core's defaults, the one source of them
+
 TRACER_ITEMS = [
     ("auto", "Auto", "The cheapest tracer whose omissions stay below the tolerance (reasons in the report)"),
     ("absorption", "Absorption", "Emission and absorption only (tracer 1)"),
@@ -61,14 +65,14 @@ class VolpathSettings(bpy.types.PropertyGroup):
     max_depth: IntProperty(
         name="Max Depth",
         description="Path segments as Mitsuba counts them (-1: unlimited)",
-        default=-1,
+        default=DEFAULTS.max_depth,
         min=-1,
         soft_max=1024,
     )
     rr_depth: IntProperty(
         name="Russian Roulette Depth",
         description="Depth from which paths may be ended at random",
-        default=5,
+        default=DEFAULTS.rr_depth,
         min=1,
         soft_max=64,
     )
@@ -84,7 +88,7 @@ class VolpathSettings(bpy.types.PropertyGroup):
     max_null_collisions: IntProperty(
         name="Max Null Collisions",
         description="Safety cap on null collisions per segment",
-        default=1000,
+        default=DEFAULTS.max_null_collisions,
         min=1,
         soft_max=100000,
     )

@@ -119,7 +119,7 @@ def main():
     import volpath
     from addon.export.animation import export_animation
     from pipeline import video
-    from volpath.frames import render_frame
+    from pipeline.frames import render_frame
 
     if args.sky:
         return sky_main(args, sky_scene(), video, volpath, export_animation, render_frame, bpy)

@@ -1,5 +1,5 @@
 """What a sunrise frame costs besides its samples (issue #33, item 4): per frame, a worker
-that keeps its scene (volpath.frames: Scene.update moves the sun and the camera; the sky
+that keeps its scene (pipeline.frames: Scene.update moves the sun and the camera; the sky
 map's levels serve while the sun stays within their elevations) against one that loads
 every frame afresh, and Cycles 5.0 on the same frames; same machine, same threads, one run.
 Each kept frame is checked to be the same bits as the fresh one.
@@ -33,7 +33,7 @@ def main():
     import addon
     import volpath
     from addon.export.animation import export_animation
-    from volpath import frames as F
+    from pipeline import frames as F
 
     addon.register()
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend"))

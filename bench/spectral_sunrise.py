@@ -49,7 +49,7 @@ def main():
     import volpath
     from addon.export.animation import export_animation
     from pipeline import video
-    from volpath.frames import _load, frame_dictionary
+    from pipeline.frames import _load, frame_dictionary
 
     addon.register()
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend"))

@@ -43,7 +43,7 @@ def references(frames, shape, ref_spp):
 
         import addon
         from addon.export.animation import export_animation
-        from volpath.frames import render_frame
+        from pipeline.frames import render_frame
 
         addon.register()
         bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend"))

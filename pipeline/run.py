@@ -27,9 +27,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 import volpath
-from volpath.frames import film_shape, pack, render_frame
 
 from . import video
+from .frames import film_shape, pack, render_frame
 
 
 @dataclass

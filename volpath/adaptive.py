@@ -148,7 +148,7 @@ class Adaptive:
         return np.maximum(counts, self.taken).astype(np.uint32)
 
 
-def render_adaptive(passes, args, target, max_spp, exposure, progress, status, out, sobol, features=None, film=None):
+def render_adaptive(passes, settings, target, exposure, progress, status, out, features=None, film=None):
     """Rounds of native renders until the image's error is ``target`` or every block is at
     ``max_spp``; returns (image, stats, samples per pixel): the image and stats as
     _core.render gives them, with the achieved error and the spp taken. ``features`` (the
@@ -156,8 +156,10 @@ def render_adaptive(passes, args, target, max_spp, exposure, progress, status, o
     one in spectral mode, where each round renders the same pixels' samples in every pass
     (pass k's sample indices from k * max_spp on, disjoint) and ``film`` (spectral.Film)
     integrates their half-buffers into linear sRGB; the counts are then per pass, the
-    stats' spp over all passes, as fixed-spp spectral renders count them."""
-    _, seed, threads, *tracer_args = args  # the spp each pixel takes is the rounds' counts
+    stats' spp over all passes, as fixed-spp spectral renders count them. ``settings``
+    (_core.RenderSettings): its spp is the cap per pixel, and the rounds set its
+    first_sample."""
+    max_spp = settings.spp
     height, width = passes[0].height, passes[0].width
     state = Adaptive(height, width, target, max_spp, exposure)
     n_passes = len(passes)
@@ -186,20 +188,15 @@ def render_adaptive(passes, args, target, max_spp, exposure, progress, status, o
             return None if progress is None else progress(done / total)
 
         for k, native in enumerate(passes):
+            settings.first_sample = k * state.max_spp
             _, s = _core.render(
                 native,
-                2,
-                seed,
-                threads,
-                *tracer_args,
-                report if n_passes == 1 else (lambda f, k=k: report((k + f) / n_passes)),
-                None,
-                sobol,
-                k * state.max_spp,
-                state.taken,
-                counts,
-                halves[k],
-                features if k == 0 else None,
+                settings,
+                progress=report if n_passes == 1 else (lambda f, k=k: report((k + f) / n_passes)),
+                starts=state.taken,
+                counts=counts,
+                halves=halves[k],
+                features=features if k == 0 else None,
             )
             stats["seconds"] += s["seconds"]
             for key in ("nonfinite_samples", "negative_samples"):

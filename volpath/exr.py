@@ -1,8 +1,11 @@
 """OpenEXR image I/O through the ``OpenEXR`` package (numpy in, numpy out)."""
 
 import os
+from collections.abc import Mapping
+from typing import Any, Literal, overload
 
 import numpy as np
+import numpy.typing as npt
 import OpenEXR
 
 # Header attributes that OpenEXR itself manages; everything else is user metadata.
@@ -34,7 +37,9 @@ def _metadata_value(key, value):
     raise TypeError(f"metadata {key!r}: expected a number, a string or a 2/3-vector, got {value!r}")
 
 
-def write_exr(path, image, metadata=None, half=False):
+def write_exr(
+    path: str | os.PathLike, image: npt.ArrayLike, metadata: Mapping[str, Any] | None = None, half: bool = False
+) -> None:
     """Write a linear image of shape (h, w), (h, w, 3) or (h, w, 4) to ``path``.
 
     The file is written to a temporary name and renamed into place, so a reader never
@@ -65,7 +70,11 @@ def write_exr(path, image, metadata=None, half=False):
             os.remove(tmp)
 
 
-def read_exr(path, metadata=False):
+@overload
+def read_exr(path: str | os.PathLike, metadata: Literal[False] = False) -> np.ndarray: ...
+@overload
+def read_exr(path: str | os.PathLike, metadata: Literal[True]) -> tuple[np.ndarray, dict[str, Any]]: ...
+def read_exr(path: str | os.PathLike, metadata: bool = False) -> np.ndarray | tuple[np.ndarray, dict[str, Any]]:
     """Read an EXR as float32 (h, w, 3) RGB (grey images are repeated, alpha dropped).
 
     With ``metadata=True`` returns ``(image, dict)`` with the non-standard header entries.

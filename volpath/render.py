@@ -2,6 +2,8 @@
 
 import os
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -12,6 +14,7 @@ from .denoise import denoise as oidn
 from .denoise import surface_passes
 from .errors import RenderCancelled
 from .plugins.integrators import TRACERS
+from .scene import Scene
 from .spectral import Film
 
 SAMPLERS = ("sobol", "independent")
@@ -19,23 +22,23 @@ MAX_SPP = 1024  # the cap of a render to a target error when no spp is given
 
 
 def render(
-    scene,
-    spp=None,
-    seed=0,
-    threads=None,
-    tracer=None,
-    progress=None,
-    max_depth=None,
-    tolerance=0.01,
-    out=None,
-    sampler="sobol",
-    light_distances=None,
-    target_error=None,
-    exposure=None,
-    status=None,
-    denoise=False,
-    aovs=False,
-):
+    scene: Scene,
+    spp: int | None = None,
+    seed: int = 0,
+    threads: int | None = None,
+    tracer: str | None = None,
+    progress: Callable[[float], bool | None] | None = None,
+    max_depth: int | None = None,
+    tolerance: float = 0.01,
+    out: np.ndarray | None = None,
+    sampler: str = "sobol",
+    light_distances: bool | None = None,
+    target_error: float | None = None,
+    exposure: float | None = None,
+    status: Callable[[dict[str, Any]], None] | None = None,
+    denoise: bool = False,
+    aovs: bool = False,
+) -> Any:
     """Render ``scene`` and return a ``numpy.float32`` array of shape (height, width, 3).
 
     spp        samples per pixel (default: the scene's sampler ``sample_count``); in spectral
@@ -94,11 +97,7 @@ def render(
         raise ValueError("max_depth must be -1 (unlimited) or at least 1")
     tracer, auto = resolve_tracer(scene, tracer, tolerance, max_depth)
     spp = (MAX_SPP if target_error is not None else scene.spp) if spp is None else int(spp)
-    if spp < 1:
-        raise ValueError(f"spp must be at least 1, got {spp}")
     threads = 0 if threads is None else int(threads)
-    if threads < 0:
-        raise ValueError(f"threads must be positive, got {threads}")
     if sampler not in SAMPLERS:
         raise ValueError(f"unknown sampler '{sampler}' (expected one of: {', '.join(SAMPLERS)})")
     if not 0 <= int(seed) < 2**64:
@@ -106,37 +105,38 @@ def render(
     # Spectral: the samples are shared out over the wavelength passes.
     per_pass = -(-spp // len(scene.passes)) if scene.passes else spp
     spp = per_pass * max(len(scene.passes), 1)
-    args = (
-        per_pass,
-        int(seed),
-        threads,
-        TRACERS.index(tracer),
-        max_depth,
-        scene.rr_depth,
-        scene.max_null_collisions,
-        scene.light_distances if light_distances is None else bool(light_distances),
+    settings = _core.RenderSettings(
+        spp=per_pass,
+        seed=int(seed),
+        threads=threads,
+        low_discrepancy=sampler == "sobol",
+        tracer=_core.TracerConfig(
+            tracer=_core.Tracer[tracer],
+            max_depth=max_depth,
+            rr_depth=scene.rr_depth,
+            max_null_collisions=scene.max_null_collisions,
+            light_distances=scene.light_distances if light_distances is None else bool(light_distances),
+        ),
     )
     features = np.zeros((scene.height, scene.width, 8)) if denoise or aovs else None
     samples = per_pass
     if target_error is not None:
         image, stats, samples = render_adaptive(
             scene.passes or [scene.native],
-            args,
+            settings,
             target_error,
-            per_pass,
             exposure,
             progress,
             status,
             out,
-            sampler == "sobol",
             features,
             Film(len(scene.passes)) if scene.passes else None,
         )
         spp = stats["spp_max"]
     elif scene.passes:
-        image, stats = _render_spectral(scene.passes, args, progress, out, sampler == "sobol", features)
+        image, stats = _render_spectral(scene.passes, settings, progress, out, features)
     else:
-        image, stats = _core.render(scene.native, *args, progress, out, sampler == "sobol", features=features)
+        image, stats = _core.render(scene.native, settings, progress=progress, out=out, features=features)
     if denoise and not stats["cancelled"]:
         start = time.perf_counter()
         image[...] = oidn(image, features, samples)
@@ -158,16 +158,17 @@ def render(
     return (image, surface_passes(features, samples)) if aovs else image
 
 
-def _render_spectral(passes, args, progress, out, sobol, features):
+def _render_spectral(passes, settings, progress, out, features):
     """The passes of a spectral scene, integrated into linear sRGB (volpath/spectral.py).
-    Pass k renders the pixel samples k n .. (k + 1) n - 1 (n = args[0]): together the passes
+    Pass k renders the pixel samples k n .. (k + 1) n - 1 (n = settings.spp): together the passes
     are the samples of one render at n * passes spp, each path carrying its pass's three
     wavelengths. The denoiser's ``features`` come from the first pass."""
     film = Film(len(passes))
     stats = {"seconds": 0.0, "nonfinite_samples": 0, "negative_samples": 0, "clamped_share": 0.0, "cancelled": False}
     for k, native in enumerate(passes):
         report = None if progress is None else (lambda f, k=k: progress((k + f) / len(passes)))
-        image, s = _core.render(native, *args, report, None, sobol, k * args[0], features=None if k else features)
+        settings.first_sample = k * settings.spp
+        image, s = _core.render(native, settings, progress=report, features=None if k else features)
         stats["seconds"] += s["seconds"]
         for key in ("nonfinite_samples", "negative_samples"):
             stats[key] += s[key]
@@ -183,7 +184,9 @@ def _render_spectral(passes, args, progress, out, sobol, features):
     return image, stats
 
 
-def resolve_tracer(scene, tracer="auto", tolerance=0.01, max_depth=-1):
+def resolve_tracer(
+    scene: Scene, tracer: str = "auto", tolerance: float = 0.01, max_depth: int = -1
+) -> tuple[str, dict[str, Any] | None]:
     """(tracer, auto) for a render: "auto" becomes the cheapest sufficient tracer, with
     ``auto`` = its reasons and error bound (None when the tracer was given)."""
     if tracer != "auto":

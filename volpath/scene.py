@@ -9,8 +9,9 @@ it came from.
 import contextlib
 import gc
 import os
+from typing import Any
 
-from . import spectral
+from . import _core, spectral
 from .errors import SceneError
 from .plugins.builder import Builder
 from .xml_reader import read_xml
@@ -26,7 +27,7 @@ class Scene:
     (seconds, non-finite sample count, ...).
     """
 
-    def __init__(self, native, settings, summary, source):
+    def __init__(self, native: _core.Scene, settings: dict, summary: dict, source: str | None):
         self.native = native
         self.spp = settings["spp"]
         self.max_depth = settings["max_depth"]
@@ -36,22 +37,22 @@ class Scene:
         self.tracer = settings["tracer"]
         self.summary = summary
         self.source = source
-        self.last_render = None
-        self.passes = []  # spectral mode: one native scene per wavelength pass
-        self._builder = None  # what update() rebuilds with
+        self.last_render: dict[str, Any] | None = None
+        self.passes: list[_core.Scene] = []  # spectral mode: one native scene per wavelength pass
+        self._builder: Builder | None = None  # what update() rebuilds with
 
     @property
-    def width(self):
+    def width(self) -> int:
         return self.native.width
 
-    def update(self, d):
+    def update(self, d: dict) -> bool:
         """Move the scene to ``d``: the dictionary it was loaded from with its sensor or its
         point, sun and directional emitters replaced, each by one of its type (an
         animation's next frame, a lamp edited in the viewport). Only those are
         built again; meshes, media, the BVH, and the sky map's levels while the sun stays
         within their elevations, are kept, and the image is the same bits as
         ``load_dict(d)``'s. Entries not replaced must be the same objects (as
-        ``volpath.frames.frame_dictionary`` leaves them). Returns False, changing nothing,
+        ``pipeline.frames.frame_dictionary`` leaves them). Returns False, changing nothing,
         where ``d`` differs in anything else or the scene has spectral passes."""
         if self.passes or self._builder is None:
             return False
@@ -62,11 +63,11 @@ class Scene:
         return True
 
     @property
-    def height(self):
+    def height(self) -> int:
         return self.native.height
 
     @property
-    def memory(self):
+    def memory(self) -> dict[str, int]:
         """Bytes the native scene holds, by part ("shapes", "bvh", "media", "lights"; a
         spectral mode's passes summed in) and in all ("total")."""
         parts = dict(self.native.memory)
@@ -75,7 +76,7 @@ class Scene:
                 parts[part] += n
         return {**parts, "total": sum(parts.values())}
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (
             f"<volpath.Scene {self.source or ''} {self.width}x{self.height}, spp={self.spp}, "
             f"tracer={self.tracer}, max_depth={self.max_depth}>"
@@ -96,7 +97,7 @@ def _no_cycle_collection():
 
 
 @_no_cycle_collection()
-def load_file(path, **params):
+def load_file(path: str | os.PathLike, **params: Any) -> Scene:
     """Load a Mitsuba 3 (or 0.5/0.6 / lajolla) XML scene. Keyword arguments override the
     file's ``<default>`` parameters, as ``mi.load_file`` does."""
     path = os.fspath(path)
@@ -109,14 +110,14 @@ def load_file(path, **params):
 
 
 @_no_cycle_collection()
-def load_string(xml, base_dir=".", **params):
+def load_string(xml: str, base_dir: str | os.PathLike = ".", **params: Any) -> Scene:
     """Load a scene from XML text; relative file names are resolved against base_dir."""
     d = read_xml(xml, "<string>", params)
     return load_dict(d, base_dir=base_dir, source="<string>")
 
 
 @_no_cycle_collection()
-def load_dict(d, base_dir=".", source=None):
+def load_dict(d: dict, base_dir: str | os.PathLike = ".", source: str | None = None) -> Scene:
     """Build a scene from a Mitsuba-style dictionary ({'type': 'scene', ...})."""
     if not isinstance(d, dict) or d.get("type") != "scene":
         raise SceneError("expected a scene dictionary with 'type': 'scene'")

@@ -12,8 +12,10 @@ cost. Grids come from numpy arrays, Mitsuba ``.vol`` files and OpenVDB ``.vdb`` 
 
 import os
 import re
+from collections.abc import Callable
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _core, vdb
 from .errors import SceneError
@@ -23,14 +25,20 @@ from .grids import clamp_negative, read_vol
 class VolumeGrid:
     """A sparse voxel grid (1 or 3 channels, float32) and its placement ``to_world``."""
 
-    def __init__(self, native, to_world=None, source="", vdb=None):
+    def __init__(
+        self,
+        native: _core.VoxelGrid,
+        to_world: npt.ArrayLike | None = None,
+        source: str = "",
+        vdb: tuple[str, str, np.ndarray] | None = None,
+    ):
         self.native = native
         self.to_world = np.eye(4) if to_world is None else np.array(to_world, dtype=np.float64).reshape(4, 4)
         self.source = source  # "file, grid 'name'" for messages
         self.vdb = vdb  # (path, grid, to_world given) when read from a .vdb: how to read it again
 
     @classmethod
-    def from_numpy(cls, data, to_world=None):
+    def from_numpy(cls, data: npt.ArrayLike, to_world: npt.ArrayLike | None = None) -> "VolumeGrid":
         """From a (z, y, x) or (z, y, x, 1 or 3) array; x is the fastest axis."""
         data = np.asarray(data, dtype=np.float32)
         if data.ndim == 3:
@@ -43,7 +51,13 @@ class VolumeGrid:
         return cls(_core.VoxelGrid.from_dense(np.ascontiguousarray(data)), to_world)
 
     @classmethod
-    def from_file(cls, path, grid="density", to_world=None, frame=None):
+    def from_file(
+        cls,
+        path: str | os.PathLike,
+        grid: str = "density",
+        to_world: npt.ArrayLike | None = None,
+        frame: int | None = None,
+    ) -> "VolumeGrid":
         """From a ``.vdb`` file (the grid named `grid`, placed by the file's transform, then
         by `to_world`) or a Mitsuba ``.vol`` file (its bounding box, then `to_world`). A run
         of ``#`` in the file name is replaced by `frame`, zero-padded (Blender's sequences)."""
@@ -61,30 +75,30 @@ class VolumeGrid:
         return cls(_core.VoxelGrid.from_dense(data), user @ box, path)
 
     @property
-    def shape(self):
+    def shape(self) -> tuple[int, int, int, int]:
         """(z, y, x, channels), as ``numpy()`` returns."""
         x, y, z = self.native.res
         return (z, y, x, self.native.channels)
 
     @property
-    def channels(self):
+    def channels(self) -> int:
         return self.native.channels
 
     @property
-    def nbytes(self):
+    def nbytes(self) -> int:
         """Resident bytes of the voxels (stored bricks and the brick index)."""
         return self.native.nbytes
 
     @property
-    def dense_nbytes(self):
+    def dense_nbytes(self) -> int:
         """Bytes the same grid would take as a dense float32 array."""
         return int(np.prod(self.shape)) * 4
 
-    def numpy(self):
+    def numpy(self) -> np.ndarray:
         """The grid as a dense float32 array (z, y, x, channels)."""
         return self.native.dense()
 
-    def save(self, path, grid="density"):
+    def save(self, path: str | os.PathLike, grid: str = "density") -> None:
         """Write the grid as a sparse ``.vdb`` file holding one fog-volume grid named `grid`
         (its non-zero voxels active), placed by ``to_world``: ``from_file(path, grid)``
         reads back the same values at the same places. Needs the OpenVDB module."""
@@ -103,32 +117,40 @@ class VolumeGrid:
             },
         )
 
-    def max(self):
+    def max(self) -> float:
         bricks = self.native.bricks
         return float(bricks.max()) if bricks.size else 0.0
 
-    def min(self):
+    def min(self) -> float:
         """The smallest value (0 where bricks are empty, or pad a side that is not a multiple of 8)."""
         bricks = self.native.bricks
         empty = bool(np.any(self.native.brick_index < 0))
         return min(float(bricks.min()) if bricks.size else 0.0, 0.0 if empty else np.inf)
 
-    def map(self, f):
+    @property
+    def bricks(self) -> np.ndarray:
+        """The stored bricks' voxels, read-only: (n, 8, 8, 8, channels), (z, y, x) inside."""
+        return self.native.bricks
+
+    def with_bricks(self, values: npt.ArrayLike) -> "VolumeGrid":
+        """A grid on the same bricks and placement holding `values` (n, 8, 8, 8, 1 or 3)
+        instead: a quantity derived voxel by voxel (unstored voxels stay 0)."""
+        values = np.ascontiguousarray(values, dtype=np.float32)
+        native = _core.VoxelGrid.from_bricks(self.native.res, self.native.brick_index, values)
+        return VolumeGrid(native, self.to_world, self.source)
+
+    def map(self, f: Callable[[np.ndarray], npt.ArrayLike]) -> "VolumeGrid":
         """A grid of f(values) with the same placement; f maps a (..., channels) array to
         (..., 1 or 3) and must map 0 to 0 (unstored voxels stay 0)."""
-        bricks = self.native.bricks
         if np.any(np.asarray(f(np.zeros((1, self.channels), np.float32))) != 0):
             raise ValueError("map: f(0) must be 0")
-        out = np.ascontiguousarray(f(bricks), dtype=np.float32)
-        return VolumeGrid(
-            _core.VoxelGrid.from_bricks(self.native.res, self.native.brick_index, out), self.to_world, self.source
-        )
+        return self.with_bricks(f(self.bricks))
 
     @property
-    def world_to_grid(self):
+    def world_to_grid(self) -> np.ndarray:
         return np.linalg.inv(self.to_world)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         z, y, x, c = self.shape
         return (
             f"VolumeGrid({x}x{y}x{z}, {c} channel{'s' * (c > 1)}, {self.nbytes / 2**20:.1f} MiB "
@@ -136,7 +158,7 @@ class VolumeGrid:
         )
 
 
-def sequence_path(path, frame):
+def sequence_path(path: str, frame: int | None) -> str:
     """`path` with its run of '#' replaced by `frame` zero-padded to the run's length."""
     run = re.search(r"#+", os.path.basename(path))
     if run is None:
@@ -175,7 +197,9 @@ def _grid_from_vdb(d, path, name, user_to_world):
     )
 
 
-def read_vdb_aligned(path, names, to_world=None):
+def read_vdb_aligned(
+    path: str, names: list[str], to_world: npt.ArrayLike | None = None
+) -> tuple[VolumeGrid, list[np.ndarray]]:
     """Grids of one ``.vdb`` file for combining voxel by voxel (an emitting volume's density
     and temperature): the first as ``VolumeGrid.from_file`` reads it, and for each other
     name the first's stored bricks (numpy (n, 8, 8, 8, channels)) filled with that grid's

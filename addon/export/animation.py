@@ -1,19 +1,7 @@
 """A Blender animation as an animation directory: the scene once, and per frame what moves,
 evaluated by Blender itself (``frame_set``), so that fcurves, drivers and constraints
-count. The pipeline (``pipeline.run``) renders such a directory, frame by frame
-(``volpath.frames``), without Blender.
-
-The directory holds ``scene.xml`` (with its meshes/ and volumes/) and ``animation.json``::
-
-    {"suns": {"<scene key>": "<Blender object>"},
-     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4,
-                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...]}
-
-``suns``: the scene's sun emitters and the Sun lamps they came from; per frame, each lamp's
-direction (where its light travels, in scene coordinates) and the camera's ``to_world``
-(null without a camera). ``volumes`` only for VDB sequences: their grids at that frame, as
-scene-language volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting
-volume's radiance written sparse by volpath.xml_writer).
+count. The pipeline renders such a directory frame by frame without Blender
+(``pipeline.frames``, where the directory's format is described).
 """
 
 import json
@@ -21,7 +9,7 @@ import os
 
 import numpy as np
 
-from volpath.frames import ANIMATION_FILE
+from pipeline.frames import ANIMATION_FILE
 
 from . import ExportError, camera, export_scene, export_volume, lights, write_directory
 

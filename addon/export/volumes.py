@@ -100,7 +100,6 @@ def _with_emission(volume, path, attribute, matrix_world, medium, scale, albedo,
     the same bricks: Blender's emission over sigma_a, plus blackbody radiance at Temperature
     x the temperature grid, voxel by voxel (Le divides by the density, so the two grids
     share voxels)."""
-    from volpath import VolumeGrid, _core
     from volpath.volume import read_vdb_aligned
 
     from .materials import emitted_radiance
@@ -112,14 +111,11 @@ def _with_emission(volume, path, attribute, matrix_world, medium, scale, albedo,
         else:
             report.warn(f"{owner}: no '{medium['temperature_attribute']}' grid: blackbody at the constant Temperature")
     density, others = read_vdb_aligned(path, names, to_world=convert.matrix(matrix_world))
-    bricks = density.native.bricks  # (n, 8, 8, 8, 1)
+    bricks = density.bricks  # (n, 8, 8, 8, 1)
     temperature = np.full(bricks.shape[:4], medium.get("temperature", 0.0))
     if others:
         temperature = temperature * others[0][..., 0]
     Le = emitted_radiance(medium, scale * bricks * (1 - albedo), temperature, report, owner)
     if np.any(Le > 0):
-        native = _core.VoxelGrid.from_bricks(
-            density.native.res, density.native.brick_index, np.ascontiguousarray(Le, dtype=np.float32)
-        )
-        interior["radiance"] = VolumeGrid(native, density.to_world, density.source)
+        interior["radiance"] = density.with_bricks(Le)
     return density

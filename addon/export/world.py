@@ -65,7 +65,7 @@ def _sky(node, scene, strength, report, has_sun_lamp):
         "free_flight": settings.atmosphere_free_flight,
         "majorant_pieces": int(settings.atmosphere_pieces),
     }
-    from volpath.plugins.media import ATMOSPHERE_PRESETS
+    from volpath import ATMOSPHERE_PRESETS
 
     preset = ATMOSPHERE_PRESETS[settings.atmosphere_preset]
     radius = preset["planet_radius"]

@@ -55,7 +55,7 @@ def sunrise_renderers(frames, res):
 
     import addon
     from addon.export.animation import export_animation
-    from volpath.frames import render_frame
+    from pipeline.frames import render_frame
 
     addon.register()
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "scenes", "sunrise", "sunrise.blend"))

@@ -62,7 +62,4 @@ inline PhaseFunction phase(double g) {
     return HenyeyGreenstein{g};
 }
 
-// The tests' probes into the core's parts (samplers, media, lights, BSDFs): probes.cpp.
-void bind_probes(py::module_ &m);
-
 }  // namespace volpath::bindings

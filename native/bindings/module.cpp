@@ -1,5 +1,6 @@
 // pybind11 glue for volpath._core: conversions and GIL handling only. The tests' probes
-// into the core's parts are in probes.cpp.
+// into the core's parts are a module of their own (probes.cpp: volpath._probes).
+#include <pybind11/native_enum.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -88,21 +89,22 @@ ShapeInfo shape_info(int bsdf, int interior, int exterior, bool medium_interface
     return info;
 }
 
-py::tuple render_py(Scene &scene, int spp, uint64_t seed, int threads, int tracer, int max_depth, int rr_depth,
-                    int max_null_collisions, bool light_distances, py::object progress_cb, py::object out,
-                    bool low_discrepancy, uint64_t first_sample, py::object starts, py::object counts,
-                    py::object halves, py::object features) {
+// Checks what the core assumes of its settings, with the parameter's name in the message.
+void check(const RenderSettings &s) {
+    const TracerConfig &t = s.tracer;
+    if (s.spp < 1) throw std::invalid_argument("spp must be at least 1, got " + std::to_string(s.spp));
+    if (s.threads < 0) throw std::invalid_argument("threads must be 0 (all cores) or more");
+    if (t.max_depth == 0 || t.max_depth < -1)
+        throw std::invalid_argument("max_depth must be -1 (unlimited) or at least 1");
+    if (t.rr_depth < 1) throw std::invalid_argument("rr_depth must be at least 1");
+    if (t.max_null_collisions < 1) throw std::invalid_argument("max_null_collisions must be at least 1");
+}
+
+py::tuple render_py(Scene &scene, RenderSettings settings, py::object progress_cb, py::object out, py::object starts,
+                    py::object counts, py::object halves, py::object features) {
+    check(settings);
     if (!scene.built) scene.build();
-    if (tracer < 0 || tracer > int(Tracer::NullScattering)) throw std::invalid_argument("unknown tracer");
-    if (spp < 1) throw std::invalid_argument("spp must be at least 1");
-    check_tracer_supports(scene, Tracer(tracer));
-    RenderSettings settings;
-    settings.spp = spp;
-    settings.seed = seed;
-    settings.first_sample = first_sample;
-    settings.low_discrepancy = low_discrepancy;
-    settings.threads = threads;
-    settings.tracer = {Tracer(tracer), max_depth, rr_depth, max_null_collisions, light_distances};
+    check_tracer_supports(scene, settings.tracer.tracer);
     // Adaptive rendering's per-pixel arrays, used in place (the caller keeps them alive).
     const auto pixel_array = [&](py::object a, const char *name, std::vector<py::ssize_t> shape, auto *type) {
         using T = std::remove_pointer_t<decltype(type)>;
@@ -214,6 +216,63 @@ py::tuple mesh_file(MeshArrays (*read)(const std::string &), const std::string &
     }
     return py::make_tuple(columns(std::move(mesh.positions), 3), columns(std::move(mesh.triangles), 3),
                           columns(std::move(mesh.normals), 3), columns(std::move(mesh.uvs), 2));
+}
+
+// The render settings as Python sees them: every default is the C++ struct's own.
+void bind_settings(py::module_ &m) {
+    py::native_enum<Tracer>(m, "Tracer", "enum.Enum",
+                            "The five tracers, each a superset of the one before (docs/tracers.md).")
+        .value("absorption", Tracer::Absorption)
+        .value("single", Tracer::Single)
+        .value("multiple", Tracer::Multiple)
+        .value("nee_mis", Tracer::NeeMis)
+        .value("null_scattering", Tracer::NullScattering)
+        .finalize();
+
+    const TracerConfig t;
+    static_assert(TracerConfig{}.tracer == Tracer::NullScattering, "the default's description below names it");
+    py::class_<TracerConfig>(m, "TracerConfig", "Which tracer, and the bounds on its paths.")
+        .def(py::init([](Tracer tracer, int max_depth, int rr_depth, int max_null_collisions, bool light_distances) {
+                 return TracerConfig{tracer, max_depth, rr_depth, max_null_collisions, light_distances};
+             }),
+             py::kw_only(), py::arg_v("tracer", t.tracer, "Tracer.null_scattering"), py::arg("max_depth") = t.max_depth,
+             py::arg("rr_depth") = t.rr_depth, py::arg("max_null_collisions") = t.max_null_collisions,
+             py::arg("light_distances") = t.light_distances)
+        .def_readwrite("tracer", &TracerConfig::tracer)
+        .def_readwrite("max_depth", &TracerConfig::max_depth,
+                       "Path segments as Mitsuba counts them: 1 = emitters seen directly, -1 = unlimited.")
+        .def_readwrite("rr_depth", &TracerConfig::rr_depth, "Scattering events before Russian roulette may end a path.")
+        .def_readwrite("max_null_collisions", &TracerConfig::max_null_collisions,
+                       "Safety cap on null collisions per path segment.")
+        .def_readwrite("light_distances", &TracerConfig::light_distances,
+                       "NEE in homogeneous media also from distances drawn for the lights, combined by MIS.")
+        .def("__repr__", [](const TracerConfig &c) {
+            return "TracerConfig(tracer=" + py::repr(py::cast(c.tracer)).cast<std::string>() +
+                   ", max_depth=" + std::to_string(c.max_depth) + ", rr_depth=" + std::to_string(c.rr_depth) +
+                   ", max_null_collisions=" + std::to_string(c.max_null_collisions) +
+                   ", light_distances=" + (c.light_distances ? "True" : "False") + ")";
+        });
+
+    const RenderSettings r;
+    py::class_<RenderSettings>(m, "RenderSettings", "What one call of render() takes besides the scene.")
+        .def(py::init([](int spp, uint64_t seed, uint64_t first_sample, bool low_discrepancy, int threads,
+                         const TracerConfig &tracer) {
+                 RenderSettings s;
+                 s.spp = spp, s.seed = seed, s.first_sample = first_sample;
+                 s.low_discrepancy = low_discrepancy, s.threads = threads, s.tracer = tracer;
+                 return s;
+             }),
+             py::kw_only(), py::arg("spp") = r.spp, py::arg("seed") = r.seed, py::arg("first_sample") = r.first_sample,
+             py::arg("low_discrepancy") = r.low_discrepancy, py::arg("threads") = r.threads,
+             py::arg_v("tracer", r.tracer, "TracerConfig()"))
+        .def_readwrite("spp", &RenderSettings::spp)
+        .def_readwrite("seed", &RenderSettings::seed, "The same seed gives the same bits on any number of threads.")
+        .def_readwrite("first_sample", &RenderSettings::first_sample,
+                       "Sample indices first_sample .. first_sample + spp - 1.")
+        .def_readwrite("low_discrepancy", &RenderSettings::low_discrepancy,
+                       "Owen-scrambled Sobol; False: independent PCG32 numbers.")
+        .def_readwrite("threads", &RenderSettings::threads, "Worker threads (0: all hardware threads).")
+        .def_readwrite("tracer", &RenderSettings::tracer);
 }
 
 }  // namespace
@@ -419,24 +478,25 @@ PYBIND11_MODULE(_core, m) {
             py::arg("sigma_a"), py::arg("sigma_s"), py::arg("g") = 0.0, py::arg("Le") = Array3{0.0, 0.0, 0.0})
         .def(
             "add_medium_grid",
-            [](Scene &s, const GridPtr &density, const DoubleArray &world_to_grid, const GridPtr &albedo_grid,
-               std::optional<DoubleArray> albedo_world_to_grid, Array3 albedo, double scale, double g, int majorant_res,
-               const GridPtr &Le_grid, std::optional<DoubleArray> Le_world_to_grid, Array3 Le_scale) {
+            [](Scene &s, const GridPtr &density, const DoubleArray &world_to_grid,
+               const std::optional<GridPtr> &albedo_grid, std::optional<DoubleArray> albedo_world_to_grid,
+               Array3 albedo, double scale, double g, int majorant_res, const std::optional<GridPtr> &Le_grid,
+               std::optional<DoubleArray> Le_world_to_grid, Array3 Le_scale) {
                 if (!density) throw std::invalid_argument("a grid medium needs a density grid");
                 GridMedium gm;
                 gm.majorant_res = majorant_res;
                 gm.density = placed(density, world_to_grid);
-                gm.albedo_grid = placed(albedo_grid, albedo_world_to_grid);
-                gm.Le_grid = placed(Le_grid, Le_world_to_grid);
+                gm.albedo_grid = placed(albedo_grid.value_or(nullptr), albedo_world_to_grid);
+                gm.Le_grid = placed(Le_grid.value_or(nullptr), Le_world_to_grid);
                 gm.Le_scale = vec(Le_scale);
                 gm.albedo = vec(albedo);
                 gm.scale = scale;
                 gm.phase = phase(g);
                 return s.add_medium(gm);
             },
-            py::arg("density"), py::arg("world_to_grid"), py::arg("albedo_grid") = GridPtr(),
+            py::arg("density"), py::arg("world_to_grid"), py::arg("albedo_grid") = py::none(),
             py::arg("albedo_world_to_grid") = py::none(), py::arg("albedo") = Array3{1.0, 1.0, 1.0},
-            py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 0, py::arg("Le_grid") = GridPtr(),
+            py::arg("scale") = 1.0, py::arg("g") = 0.0, py::arg("majorant_res") = 0, py::arg("Le_grid") = py::none(),
             py::arg("Le_world_to_grid") = py::none(), py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
         .def(
             "add_mesh",
@@ -614,11 +674,15 @@ PYBIND11_MODULE(_core, m) {
                                })
         .def("__repr__", [](const Scene &s) { return "<volpath._core.Scene: " + s.describe() + ">"; });
 
-    m.def("render", &render_py, py::arg("scene"), py::arg("spp"), py::arg("seed"), py::arg("threads"),
-          py::arg("tracer"), py::arg("max_depth"), py::arg("rr_depth"), py::arg("max_null_collisions"),
-          py::arg("light_distances") = true, py::arg("progress") = py::none(), py::arg("out") = py::none(),
-          py::arg("low_discrepancy") = true, py::arg("first_sample") = 0, py::arg("starts") = py::none(),
-          py::arg("counts") = py::none(), py::arg("halves") = py::none(), py::arg("features") = py::none());
+    bind_settings(m);
+    m.def("render", &render_py, py::arg("scene"), py::arg("settings"), py::kw_only(), py::arg("progress") = py::none(),
+          py::arg("out") = py::none(), py::arg("starts") = py::none(), py::arg("counts") = py::none(),
+          py::arg("halves") = py::none(), py::arg("features") = py::none(),
+          "Renders the scene: (image float32 (height, width, 3), stats dict). progress(fraction) is called from "
+          "this thread about 20 times a second (False cancels). Adaptive rendering: pixel p takes counts[p] samples "
+          "from first_sample + starts[p] on (uint32, (height, width)), summing even and odd samples into halves "
+          "(float64, (height, width, 2, 3)); features (float64, (height, width, 8)) sums the first surface's albedo, "
+          "normal, depth and hit count. Those arrays are written in place.");
 
     py::register_exception<MeshFileError>(m, "MeshFileError", PyExc_ValueError);
     m.def(
@@ -627,6 +691,4 @@ PYBIND11_MODULE(_core, m) {
     m.def(
         "read_ply", [](const std::string &path) { return mesh_file(read_ply, path); }, py::arg("path"),
         "(positions, triangles, normals or None, uvs or None) from a PLY file (ASCII or binary).");
-
-    bind_probes(m);
 }

@@ -1,5 +1,5 @@
-// The tests' probes into the core's parts: the samplers, media, lights and BSDFs on their
-// own, for chi-square tests, oracles and the accuracy study.
+// volpath._probes, a module for the tests only: the core's parts (samplers, media, lights and
+// BSDFs) on their own, for chi-square tests and oracles. The wheel leaves it out.
 #include <limits>
 
 #include "convert.h"
@@ -7,9 +7,12 @@
 #include "volpath/render.h"
 #include "volpath/sky_map.h"
 
-namespace volpath::bindings {
+using namespace volpath;
+using namespace volpath::bindings;
 
-void bind_probes(py::module_ &m) {
+PYBIND11_MODULE(_probes, m) {
+    m.doc() = "Volpath's test probes into the core's parts (built for the tests, not in the wheel).";
+    py::module_::import("volpath._core");  // the Scene type the probes take
     // The pixel sampler's numbers: (samples, dimensions, 2) from next_2d, or
     // (samples, dimensions) from next_1d, for the sampler's own tests.
     // split_after >= 0: the values of the stream split off after that many dimensions (the
@@ -493,5 +496,3 @@ void bind_probes(py::module_ &m) {
         return out;
     });
 }
-
-}  // namespace volpath::bindings

@@ -98,11 +98,11 @@ def test_linked_duplicates_are_instances_and_modifiers_apply(blank, tmp_path):
 
 def test_instances_reach_the_pipeline_and_the_viewport(blank, tmp_path):
     """Linked duplicates stay instances in export_animation's directory, which a pipeline
-    worker renders (volpath.frames.render_frame), and in the viewport's exports, whose mesh
+    worker renders (pipeline.frames.render_frame), and in the viewport's exports, whose mesh
     cache hands the second export the same arrays."""
     from blender_scenes import tiny_animation
 
-    from volpath.frames import render_frame
+    from pipeline.frames import render_frame
 
     tiny_animation(frames=2)
     for obj in bpy.context.scene.objects:

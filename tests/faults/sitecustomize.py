@@ -7,13 +7,13 @@ import os
 _FAIL = {int(f) for f in os.environ.get("VOLPATH_TEST_FAIL_FRAMES", "").split(",") if f.strip()}
 
 if _FAIL:
-    import volpath.frames
+    import pipeline.frames
 
-    _render_frame = volpath.frames.render_frame
+    _render_frame = pipeline.frames.render_frame
 
     def render_frame(source, frame, *args, **kwargs):
         if frame in _FAIL:
             raise RuntimeError(f"frame {frame}: failure injected by the tests")
         return _render_frame(source, frame, *args, **kwargs)
 
-    volpath.frames.render_frame = render_frame
+    pipeline.frames.render_frame = render_frame

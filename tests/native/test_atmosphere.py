@@ -8,9 +8,8 @@ import pytest
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _core, _probes
 from volpath.plugins.media import ATMOSPHERE_PRESETS, rayleigh_coefficient
-from volpath.render import TRACERS
 from volpath.spectral import pass_wavelengths, white
 from volpath.testing import MIN_BATCHES, chi2_directions, max_z, render_batches
 
@@ -49,15 +48,15 @@ def air_scene(
 def test_phase_values_and_normalisation():
     from scipy.integrate import quad
 
-    assert abs(_core.rayleigh_eval(1.0) - 0.119366) < 1e-6
-    assert abs(_core.cornette_shanks_eval(0.76, 1.0) - 2.8300) < 1e-4
-    assert abs(_core.cornette_shanks_eval(0.76, -1.0) - 0.00718) < 1e-5
-    mean_cos = quad(lambda mu: 2 * math.pi * mu * _core.cornette_shanks_eval(0.76, mu), -1, 1, epsabs=1e-12)[0]
+    assert abs(_probes.rayleigh_eval(1.0) - 0.119366) < 1e-6
+    assert abs(_probes.cornette_shanks_eval(0.76, 1.0) - 2.8300) < 1e-4
+    assert abs(_probes.cornette_shanks_eval(0.76, -1.0) - 0.00718) < 1e-5
+    mean_cos = quad(lambda mu: 2 * math.pi * mu * _probes.cornette_shanks_eval(0.76, mu), -1, 1, epsabs=1e-12)[0]
     assert abs(mean_cos - 0.8098) < 1e-4
     for f in (
-        lambda mu: _core.rayleigh_eval(mu),
-        lambda mu: _core.cornette_shanks_eval(0.76, mu),
-        lambda mu: _core.cornette_shanks_eval(0.8, mu),
+        lambda mu: _probes.rayleigh_eval(mu),
+        lambda mu: _probes.cornette_shanks_eval(0.76, mu),
+        lambda mu: _probes.cornette_shanks_eval(0.8, mu),
     ):
         assert abs(quad(lambda mu: 2 * math.pi * f(mu), -1, 1, epsabs=1e-12)[0] - 1) < 1e-9
 
@@ -69,8 +68,8 @@ def test_air_phase_sampling_chi2(channel):
     fraction = (0.7, 0.5, 0.9)
     n = 200_000
     u = np.random.default_rng(4).random((n, 3))
-    dirs, pdfs = _core.air_phase_sample(fraction, 0.76, channel, u)
-    marginal = lambda z: 2 * math.pi * _core.air_phase_pdf(fraction, 0.76, channel, z)
+    dirs, pdfs = _probes.air_phase_sample(fraction, 0.76, channel, u)
+    marginal = lambda z: 2 * math.pi * _probes.air_phase_pdf(fraction, 0.76, channel, z)
     assert chi2_directions(dirs, None, n, z_marginal=marginal) > 1e-4
 
 
@@ -80,7 +79,7 @@ def test_air_phase_sampling_chi2(channel):
 @pytest.mark.parametrize("elevation,expected", [(-1.0, 57.3135), (-0.1, 588.561)])
 def test_planet_intersection_from_one_metre(elevation, expected):
     e = math.radians(elevation)
-    roots = _core.sphere_roots((0, -R, 0), R, (0, 1, 0), (math.cos(e), math.sin(e), 0))
+    roots = _probes.sphere_roots((0, -R, 0), R, (0, 1, 0), (math.cos(e), math.sin(e), 0))
     assert roots is not None
     t = min(r for r in roots if r > 0)
     assert abs(t - expected) / expected < 1e-6
@@ -104,7 +103,7 @@ def test_planet_intersection_against_exact_arithmetic():
             dd = [x / norm for x in dd]
             b = sum(x * y for x, y in zip(oc, dd))
             disc = b * b - (sum(x * x for x in oc) - Decimal(R) ** 2)
-            roots = _core.sphere_roots((0, -R, 0), R, (0, h, 0), d)
+            roots = _probes.sphere_roots((0, -R, 0), R, (0, h, 0), d)
             assert (roots is None) == (disc < 0), (h, e)
             if roots is not None:
                 for got, exact in zip(roots, (-b - disc.sqrt(), -b + disc.sqrt())):
@@ -118,7 +117,7 @@ def test_horizon_distance():
     # The tangent ray just grazes: distance to the tangent point along the horizontal
     # direction tilted down by the horizon dip angle.
     dip = math.acos(R / (R + h))
-    roots = _core.sphere_roots((0, -R, 0), R, (0, h, 0), (math.cos(dip), -math.sin(dip), 0))
+    roots = _probes.sphere_roots((0, -R, 0), R, (0, h, 0), (math.cos(dip), -math.sin(dip), 0))
     assert roots is not None and abs(roots[0] - horizon) / horizon < 1e-6
 
 
@@ -131,7 +130,7 @@ def vertical_tau(beta, H, top=60e3):
 
 def test_vertical_transmittance_oracle():
     scene = air_scene()
-    tau = np.array(_core.optical_depth(scene.native, 0, (0, 0, 0), (0, 1, 0), 60e3, 256))
+    tau = np.array(_probes.optical_depth(scene.native, 0, (0, 0, 0), (0, 1, 0), 60e3, 256))
     T = np.exp(-tau)
     # R, G, B = 680, 550, 440 nm
     assert np.allclose(T, [0.9404, 0.8677, 0.7624], atol=1e-3)
@@ -150,10 +149,10 @@ def test_ratio_tracking_is_unbiased_through_the_atmosphere():
     scene = air_scene()
     for d in [(0, 1, 0), (1, 0.2, 0), (1, 0.0, 0)]:
         d = np.array(d) / np.linalg.norm(d)
-        roots = _core.sphere_roots((0, -R, 0), R + 60e3, (0, 0.1, 0), tuple(d))
+        roots = _probes.sphere_roots((0, -R, 0), R + 60e3, (0, 0.1, 0), tuple(d))
         t_max = roots[1]
-        tau = np.array(_core.optical_depth(scene.native, 0, (0, 0.1, 0), tuple(d), t_max, 4096))
-        mean, se = _core.ratio_tracking(scene.native, 0, (0, 0.1, 0), tuple(d), t_max, 20000, 9)
+        tau = np.array(_probes.optical_depth(scene.native, 0, (0, 0.1, 0), tuple(d), t_max, 4096))
+        mean, se = _probes.ratio_tracking(scene.native, 0, (0, 0.1, 0), tuple(d), t_max, 20000, 9)
         assert np.all(np.abs(np.array(mean) - np.exp(-tau)) <= 5 * np.array(se) + 1e-9), (d, mean, np.exp(-tau), se)
 
 
@@ -163,15 +162,15 @@ def test_horizontal_air_mass():
         '<boolean name="ozone" value="false"/><rgb name="mie_extinction" value="0"/>'
         '<rgb name="mie_scattering" value="0"/><rgb name="rayleigh_scattering" value="1e-6"/>'
     )
-    roots = _core.sphere_roots((0, -R, 0), R + 60e3, (0, 0, 0), (1, 0, 0))
-    tau = _core.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
+    roots = _probes.sphere_roots((0, -R, 0), R + 60e3, (0, 0, 0), (1, 0, 0))
+    tau = _probes.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
     assert abs(tau / (1e-6 * 8e3) - 35.355) / 35.355 < 2e-3
     scene = air_scene(
         '<boolean name="ozone" value="false"/><float name="rayleigh_height" value="1200"/>'
         '<rgb name="mie_extinction" value="0"/><rgb name="mie_scattering" value="0"/>'
         '<rgb name="rayleigh_scattering" value="1e-6"/>'
     )
-    tau = _core.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
+    tau = _probes.optical_depth(scene.native, 0, (0, 0, 0), (1, 0, 0), roots[1], 20000)[0]
     assert abs(tau / (1e-6 * 1.2e3) - 91.249) / 91.249 < 2e-3
 
 
@@ -200,7 +199,7 @@ def test_single_scattering_at_the_zenith(flight):
     tau_r = vertical_tau(np.array(B["rayleigh_scattering"]), 8e3)
     tau_ms = vertical_tau(3.996e-6, 1.2e3)
     tau_t = tau_r + vertical_tau(4.44e-6, 1.2e3) + np.array(B["ozone_absorption"]) * 15e3
-    expected = np.exp(-tau_t) * (tau_r * _core.rayleigh_eval(1.0) + tau_ms * _core.cornette_shanks_eval(0.8, 1.0))
+    expected = np.exp(-tau_t) * (tau_r * _probes.rayleigh_eval(1.0) + tau_ms * _probes.cornette_shanks_eval(0.8, 1.0))
     mean, se = mean.reshape(3), se.reshape(3)
     if flight == "tracking":
         # Free flight finds a real collision in only ~5-15 % of the samples, so the noise is
@@ -385,7 +384,7 @@ def test_spectral_mode_changes_only_what_depends_on_wavelength():
     assert spectral_scene.last_render["spp"] == 6 * 64 // MIN_BATCHES  # each batch's, all passes together
 
     def samples(native, first):  # two samples of every pixel, from sample index `first` on
-        return _core.render(native, 2, 5, 0, TRACERS.index("null_scattering"), -1, 5, 1000, True, first_sample=first)[0]
+        return _core.render(native, _core.RenderSettings(spp=2, seed=5, first_sample=first))[0]
 
     assert not np.allclose(samples(rgb_scene.native, 0), samples(rgb_scene.native, 2))
     for k, (native, lam) in enumerate(zip(spectral_scene.passes, pass_wavelengths(4))):
@@ -431,8 +430,8 @@ def test_sun_transmittance_table_error():
         for elevation in np.concatenate([[90, 30, 10, 5, 2, 1, 0.5, 0], -np.linspace(0, 0.999 * dip, 6)]):
             e = math.radians(elevation)
             d = (0.0, math.sin(e), math.cos(e))
-            tau = np.array(_core.sun_optical_depth(scene.native, 0, (0.0, altitude, 0.0), d, 1e9))
-            ref = np.array(_core.optical_depth(scene.native, 0, (0.0, altitude, 0.0), d, 1e9, 4000))
+            tau = np.array(_probes.sun_optical_depth(scene.native, 0, (0.0, altitude, 0.0), d, 1e9))
+            ref = np.array(_probes.optical_depth(scene.native, 0, (0.0, altitude, 0.0), d, 1e9, 4000))
             assert np.all(np.abs(np.exp(-tau) - np.exp(-ref)) < 6e-4), (altitude, elevation, tau, ref)
             if altitude <= 1e4:
                 visible = ref < -math.log(1e-4)
@@ -448,8 +447,8 @@ def test_sun_transmittance_short_of_the_top_takes_the_quadrature():
         d = (0.0, math.sin(math.radians(elevation)), math.cos(math.radians(elevation)))
         for o in ((0.0, 2.0, 0.0), (0.0, 3e3, 0.0)):
             for t_max in (10.0, 300.0, 1e3, 2e3, 5e3, 2e4):
-                tau = np.array(_core.sun_optical_depth(scene.native, 0, o, d, t_max))
-                ref = np.array(_core.optical_depth(scene.native, 0, o, d, t_max, 4000))
+                tau = np.array(_probes.sun_optical_depth(scene.native, 0, o, d, t_max))
+                ref = np.array(_probes.optical_depth(scene.native, 0, o, d, t_max, 4000))
                 assert np.allclose(tau, ref, rtol=1e-4, atol=1e-9), (elevation, o, t_max, tau, ref)
 
 
@@ -501,9 +500,9 @@ def test_guided_transmittance_error():
     for o, d in guided_rays():
         t_max = ray_to_ground_or_top(o, d)
         ts = t_max * np.array([0.001, 0.01, 0.1, 0.3, 0.7, 1.0])
-        tau, _, _ = _core.air_segment(scene.native, 0, tuple(o), tuple(d), t_max, ts, np.array([0.5]))
+        tau, _, _ = _probes.air_segment(scene.native, 0, tuple(o), tuple(d), t_max, ts, np.array([0.5]))
         for t, tau_t in zip(ts, tau):
-            ref = np.array(_core.optical_depth(scene.native, 0, tuple(o), tuple(d), t, 20000))
+            ref = np.array(_probes.optical_depth(scene.native, 0, tuple(o), tuple(d), t, 20000))
             worst = max(worst, float(np.max(np.abs(np.exp(-tau_t) - np.exp(-ref)))))
     assert worst < 1e-3, worst
 
@@ -527,9 +526,9 @@ def test_guided_collision_density_matches_its_samples():
     for o, elevation, t_max in cases:
         e = math.radians(elevation)
         d = (0.0, math.sin(e), math.cos(e))
-        _, t, pdf = _core.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u)
-        _, t_lo, _ = _core.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u - h)
-        _, t_hi, _ = _core.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u + h)
+        _, t, pdf = _probes.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u)
+        _, t_lo, _ = _probes.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u - h)
+        _, t_hi, _ = _probes.air_segment(scene.native, 0, o, d, t_max, np.array([0.0]), u + h)
         assert np.all(np.isfinite(t)) and np.all(pdf > 0) and np.all(np.diff(t) > 0), (o, elevation)
         assert np.all(t <= t_max), (o, elevation)
         assert np.allclose((t_hi - t_lo) / (2 * h) * pdf, 1, rtol=5e-3), (o, elevation)

@@ -9,7 +9,7 @@ import pytest
 
 import volpath
 from scenes import lookat
-from volpath import _core
+from volpath import _probes
 from volpath.testing import chi2_directions
 
 N = 200_000
@@ -32,7 +32,7 @@ def loaded(bsdf, **extra):
 def samples(scene, wi, u, uv=(0.5, 0.5)):
     """surface_sample where a ray from above meets the rectangle at uv."""
     origin = (2 * uv[0] - 1, 2 * uv[1] - 1, 1.0)
-    return _core.surface_sample(scene.native, top(scene), wi, u, origin, (0.0, 0.0, -1.0))
+    return _probes.surface_sample(scene.native, top(scene), wi, u, origin, (0.0, 0.0, -1.0))
 
 
 def top(scene):
@@ -52,7 +52,7 @@ def test_blend_samples_its_mixture(wi):
     ok = weights.max(axis=1) > 0
 
     def pdf(d):
-        return 0.7 * _core.bsdf_pdf(scene.native, 0, wi, d) + 0.3 * _core.bsdf_pdf(scene.native, 1, wi, d)
+        return 0.7 * _probes.bsdf_pdf(scene.native, 0, wi, d) + 0.3 * _probes.bsdf_pdf(scene.native, 1, wi, d)
 
     assert chi2_directions(dirs[ok], pdf, N) > P_MIN
 
@@ -77,7 +77,7 @@ def test_mask_passes_one_minus_opacity_and_samples_the_rest(opacity):
     dirs, weights, passed = samples(scene, wi, uniforms(N))
     assert abs(passed.mean() - (1 - opacity)) < 5 * math.sqrt(opacity * (1 - opacity) / N)
     np.testing.assert_allclose(weights[~passed], 0.8)
-    pdf = lambda d: opacity * _core.bsdf_pdf(scene.native, 0, wi, d)  # noqa: E731
+    pdf = lambda d: opacity * _probes.bsdf_pdf(scene.native, 0, wi, d)  # noqa: E731
     assert chi2_directions(dirs[~passed], pdf, N) > P_MIN
 
 

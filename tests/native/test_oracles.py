@@ -7,7 +7,7 @@ import pytest
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _probes
 from volpath.testing import render_batches
 
 SCATTERING_TRACERS = ["multiple", "nee_mis", "null_scattering"]
@@ -193,7 +193,7 @@ def test_plastic_with_a_white_base_returns_what_it_receives(eta):
     bsdf = scene.native.add_bsdf_roughplastic((1.0, 1.0, 1.0), (1.0, 1.0, 1.0), 1e-3, eta)
     u = np.random.default_rng(5).random((400_000, 3))
     for wi in ((0.0, 0.0, 1.0), (0.8, 0.0, 0.6), (0.99, 0.0, 0.141)):
-        w = _core.bsdf_sample_weight(scene.native, bsdf, wi, u)[:, 0]
+        w = _probes.bsdf_sample_weight(scene.native, bsdf, wi, u)[:, 0]
         assert abs(w.mean() - 1) < 4 * w.std() / np.sqrt(len(w)), (eta, wi, w.mean())
 
 
@@ -210,9 +210,9 @@ def test_a_metallic_principled_reflects_its_base_colour_head_on_and_white_at_gra
         }
     )
     u = np.random.default_rng(3).random((1000, 3))
-    head_on = _core.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u)
+    head_on = _probes.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u)
     np.testing.assert_allclose(head_on.mean(axis=0), base, rtol=2e-3)
-    grazing = _core.bsdf_sample_weight(scene.native, 0, (0.9995, 0.0, 0.0316), u).mean(axis=0)
+    grazing = _probes.bsdf_sample_weight(scene.native, 0, (0.9995, 0.0, 0.0316), u).mean(axis=0)
     assert np.all(grazing > 0.9), grazing
 
 
@@ -226,7 +226,7 @@ def test_thin_glass_reflects_twice_fresnels_share_and_loses_nothing():
     eta = 1.5046 / 1.000277
     u = np.random.default_rng(2).random((100_000, 3))
     for wi in ((0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.6, 0.0, -0.8)):
-        dirs, pdfs = _core.bsdf_sample(scene.native, 0, wi, u)
+        dirs, pdfs = _probes.bsdf_sample(scene.native, 0, wi, u)
         cos_i = abs(wi[2])
         cos_t = np.sqrt(1 - (1 - cos_i**2) / eta**2)
         R = (
@@ -262,10 +262,10 @@ def test_conductors_reflect_their_fresnel_reflectance():
     u = np.full((1, 3), 0.5)
     ext = 1.000277  # the surroundings' index, Mitsuba's default ext_eta
     n, kk = eta / ext, k / ext
-    weight = _core.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u)[0]
+    weight = _probes.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u)[0]
     assert np.allclose(weight, ((n - 1) ** 2 + kk**2) / ((n + 1) ** 2 + kk**2), rtol=1e-9)
     cos_i = 0.6
-    weight = _core.bsdf_sample_weight(scene.native, 0, (0.8, 0.0, cos_i), u)[0]
+    weight = _probes.bsdf_sample_weight(scene.native, 0, (0.8, 0.0, cos_i), u)[0]
     cos_t = np.sqrt(1 - (1 - cos_i**2) / n[2] ** 2)
     rs = (cos_i - n[2] * cos_t) / (cos_i + n[2] * cos_t)
     rp = (n[2] * cos_i - cos_t) / (n[2] * cos_i + cos_t)

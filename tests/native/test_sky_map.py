@@ -7,7 +7,7 @@ import pytest
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _probes
 from volpath.testing import chi2_directions, max_z, render_batches
 
 R = 6360e3
@@ -59,7 +59,7 @@ GLOSSY_HILL_AND_TOWER = """
 def sky_map(scene, p, d_in=(0, 0, -1), dirs=None, us=None):
     dirs = np.zeros((0, 3)) if dirs is None else np.asarray(dirs, float)
     us = np.zeros((0, 3)) if us is None else np.asarray(us, float)
-    return _core.sky_map(scene.native, 0, tuple(map(float, p)), tuple(map(float, d_in)), dirs, us)
+    return _probes.sky_map(scene.native, 0, tuple(map(float, p)), tuple(map(float, d_in)), dirs, us)
 
 
 def sphere_grid(n_z, n_phi):
@@ -132,7 +132,7 @@ def test_segment_light_integral_is_the_models_integral(with_map, elevation):
     )
     for o, d, t_max in rays:
         t = np.linspace(0, t_max, 400_001)
-        values, integral = _core.air_light_model(scene.native, 0, o, d, t_max, t, with_map)
+        values, integral = _probes.air_light_model(scene.native, 0, o, d, t_max, t, with_map)
         numeric = np.trapz(values, t, axis=0)
         assert np.all(values >= 0) and np.all(np.isfinite(values))
         assert np.allclose(integral, numeric, rtol=1e-4, atol=1e-12 * np.max(integral)), (o, d, integral, numeric)
@@ -206,7 +206,7 @@ def test_local_sun_shadow_is_where_rays_toward_the_sun_meet_the_local_bounds():
             d = rng.normal(size=3)
             d /= np.linalg.norm(d)
             t = np.linspace(0, 3000, 4001)
-            a, b, lo, hi = _core.local_sun_shadow(scene.native, tuple(o), tuple(d), 0.0, 3000.0)
+            a, b, lo, hi = _probes.local_sun_shadow(scene.native, tuple(o), tuple(d), 0.0, 3000.0)
             assert lo == pytest.approx((-200, -60, -1100)) and hi == pytest.approx((450, 160, -300))  # hill and fog
             p = o + t[:, None] * d
             with np.errstate(divide="ignore", invalid="ignore"):

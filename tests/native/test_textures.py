@@ -8,7 +8,7 @@ import pytest
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _core, _probes
 from volpath.meshes import write_ply
 from volpath.xml_writer import write_scene
 
@@ -61,7 +61,7 @@ def test_bitmap_lookups_match_a_reference(wrap, bilinear):
     ]
     for texels, srgb, linear in cases:
         t = native.add_texture_bitmap(texels, srgb, bilinear, wrap)
-        got = _core.texture_eval(native, t, uv)
+        got = _probes.texture_eval(native, t, uv)
         assert np.allclose(got, _reference_lookup(linear, uv, bilinear, wrap), rtol=1e-6, atol=1e-7)
 
 
@@ -74,12 +74,12 @@ def test_to_uv_and_the_checkerboard():
     uv = np.array([[0.1, 0.1], [0.1, 0.6], [0.3, 0.6], [0.3, 0.1], [-0.4, 2.1]])
     # after to_uv: (0.2, 0.6) (0.2, 1.1) (0.6, 1.1) (0.6, 0.6) (-0.8, 2.6)
     expected = np.array([[0.1, 0.2, 0.3], [0.9, 0.8, 0.7], [0.1, 0.2, 0.3], [0.9, 0.8, 0.7], [0.1, 0.2, 0.3]])
-    assert np.allclose(_core.texture_eval(native, t, uv), expected)
+    assert np.allclose(_probes.texture_eval(native, t, uv), expected)
 
 
 def _uv_at(xml, origins, dirs):
     scene = volpath.load_string(S.scene(S.camera(res=4), xml))
-    return _core.surface_uv(scene.native, np.asarray(origins, float), np.asarray(dirs, float))
+    return _probes.surface_uv(scene.native, np.asarray(origins, float), np.asarray(dirs, float))
 
 
 def test_texture_coordinates_on_each_shape(tmp_path):
@@ -287,5 +287,5 @@ def test_mitsuba_0_5_bitmap_spellings(tmp_path):
     plain = _core.Scene()
     texture = plain.add_texture_bitmap(np.asarray(Image.open(tmp_path / "tex.png")), True)
     uv = np.random.default_rng(2).random((50, 2))
-    expected = _core.texture_eval(plain, texture, uv * [4, 1] + [0, 0.25])
-    assert np.allclose(_core.texture_eval(scene.native, 0, uv), expected)
+    expected = _probes.texture_eval(plain, texture, uv * [4, 1] + [0, 0.25])
+    assert np.allclose(_probes.texture_eval(scene.native, 0, uv), expected)

@@ -247,7 +247,7 @@ def test_a_volume_grid_in_a_dictionary_writes_back_as_xml(tmp_path, border):
     outermost voxels are 0 (the scene read back has the same extinction everywhere, to
     rounding), else as a dense .vol, whose lookups clamp at the border as the grid's do
     (the same render, bit for bit)."""
-    from volpath import _core
+    from volpath import _probes
     from volpath.xml_writer import write_scene
 
     xml = S.scene(
@@ -271,8 +271,8 @@ def test_a_volume_grid_in_a_dictionary_writes_back_as_xml(tmp_path, border):
     assert 'type="vdbvolume"' in open(path).read() and (tmp_path / "volumes" / "density.vdb").is_file()
     points = np.random.default_rng(2).uniform(-1.2, 1.2, (2000, 3))
     assert np.allclose(
-        _core.medium_sigma_t(written.native, 0, points),
-        _core.medium_sigma_t(direct.native, 0, points),
+        _probes.medium_sigma_t(written.native, 0, points),
+        _probes.medium_sigma_t(direct.native, 0, points),
         rtol=1e-5,
         atol=1e-6,
     )

@@ -241,7 +241,7 @@ def test_vdb_sequence_changes_with_the_frame(tmp_path):
 
     from addon.export import export_scene
     from addon.export.animation import export_animation
-    from volpath.frames import render_frame
+    from pipeline.frames import render_frame
 
     scene = blank_scene()
     x, y, z = np.meshgrid(*(np.arange(8),) * 3, indexing="ij")
@@ -283,7 +283,7 @@ def test_a_worker_builds_the_scene_once_and_each_frame_is_the_bits_of_a_fresh_lo
     """render_frame keeps a worker's scene and moves its sun and camera from frame to frame
     (Scene.update); a frame is the same bits as the frame rendered by a fresh worker."""
     from addon.export.animation import export_animation
-    from volpath import frames
+    from pipeline import frames
 
     tiny_animation(frames=3, sky=True)
     export_animation(bpy.context.scene, [1, 2, 3], str(tmp_path / "anim"))

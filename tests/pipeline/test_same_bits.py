@@ -45,7 +45,7 @@ def sunrise_frame(tmp):
     from blender_scenes import blank_scene
 
     from addon.export.animation import export_animation
-    from volpath.frames import render_frame
+    from pipeline.frames import render_frame
 
     blend = os.path.join(tmp, "sunrise.blend")
     subprocess.run(

@@ -12,7 +12,6 @@ import volpath
 from volpath import _core
 from volpath.adaptive import SLACK
 from volpath.denoise import surface_passes
-from volpath.plugins.integrators import TRACERS
 from volpath.tonemap import auto_exposure, display
 
 WALL = """<shape type="rectangle"><transform name="to_world"><scale x="1" y="3"/><translate x="-1" z="-1"/></transform>
@@ -21,7 +20,8 @@ WALL = """<shape type="rectangle"><transform name="to_world"><scale x="1" y="3"/
 
 def features(scene, spp=4):
     f = np.zeros((scene.height, scene.width, 8))
-    _core.render(scene.native, spp, 0, 1, TRACERS.index("nee_mis"), -1, 5, 1000, True, features=f)
+    settings = _core.RenderSettings(spp=spp, threads=1, tracer=_core.TracerConfig(tracer=_core.Tracer.nee_mis))
+    _core.render(scene.native, settings, features=f)
     return surface_passes(f, spp)
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _probes
 from volpath.plugins.shapes import transform_normals, transform_points
 from volpath.testing import MIN_BATCHES, max_z, render_batches
 
@@ -92,14 +92,14 @@ def test_hits_are_the_flattened_copys(m):
     copy of the mesh to rounding (1e-9): the map is exact, not an approximation."""
     instanced, flat = scene_pair([m])
     o, d = random_rays(4000, 1)
-    t_i, shape_i, n_i = _core.intersect(instanced.native, o, d)
-    t_f, shape_f, n_f = _core.intersect(flat.native, o, d)
+    t_i, shape_i, n_i = _probes.intersect(instanced.native, o, d)
+    t_f, shape_f, n_f = _probes.intersect(flat.native, o, d)
     hit = np.isfinite(t_f)
     assert hit.sum() > 500 and (shape_f[hit] == 1).sum() > 300  # the bump is hit, not only the floor
     np.testing.assert_array_equal(np.isfinite(t_i), hit)
     np.testing.assert_allclose(t_i[hit], t_f[hit], rtol=1e-9)
     np.testing.assert_allclose(n_i[hit], n_f[hit], atol=1e-9)  # mirrored: faces turn as the copy's
-    uv_i, uv_f = _core.surface_uv(instanced.native, o, d), _core.surface_uv(flat.native, o, d)
+    uv_i, uv_f = _probes.surface_uv(instanced.native, o, d), _probes.surface_uv(flat.native, o, d)
     np.testing.assert_allclose(uv_i[hit], uv_f[hit], atol=1e-9)
 
 
@@ -177,13 +177,13 @@ def test_occlusion_queries_agree_with_the_closest_hit():
     instanced, flat = scene_pair([STRETCHED, MIRRORED, placed([0.5, 0.5, 0.5], [1.5, 1.0, 0.5])])
     o, d = random_rays(4000, 2)
     for scene in (instanced, flat):
-        t, _, _ = _core.intersect(scene.native, o, d)
+        t, _, _ = _probes.intersect(scene.native, o, d)
         hit = np.isfinite(t)
         assert hit.sum() > 500 and (~hit).sum() > 100  # both kinds of ray
         far = np.where(hit, t, 1e3)
-        assert np.array_equal(_core.occluded(scene.native, o, d, np.full(len(t), np.inf)), hit)
-        assert np.array_equal(_core.occluded(scene.native, o, d, far * (1 + 1e-9)), hit)
-        assert not _core.occluded(scene.native, o, d, far * (1 - 1e-9)).any()
+        assert np.array_equal(_probes.occluded(scene.native, o, d, np.full(len(t), np.inf)), hit)
+        assert np.array_equal(_probes.occluded(scene.native, o, d, far * (1 + 1e-9)), hit)
+        assert not _probes.occluded(scene.native, o, d, far * (1 - 1e-9)).any()
 
 
 def test_shadow_rays_decide_alike_by_any_hit_and_closest_hit():
@@ -194,5 +194,5 @@ def test_shadow_rays_decide_alike_by_any_hit_and_closest_hit():
     d = scene_pair(maps, res=16)[0]._builder.d
     aside = {"type": "rectangle", "to_world": placed([0.1, 0.1, 1.0], [0.0, 0.0, -50.0]), "hidden_from": "shadow"}
     any_hit, closest = volpath.load_dict(d), volpath.load_dict(dict(d, aside=aside))
-    assert _core.shadows_stop_at_any_hit(any_hit.native) and not _core.shadows_stop_at_any_hit(closest.native)
+    assert _probes.shadows_stop_at_any_hit(any_hit.native) and not _probes.shadows_stop_at_any_hit(closest.native)
     np.testing.assert_array_equal(volpath.render(any_hit, seed=4), volpath.render(closest, seed=4))

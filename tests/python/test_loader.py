@@ -324,14 +324,14 @@ def test_named_conductors_reflect_their_measured_index():
     conductor's sample weight head-on is the Fresnel reflectance of the table's index at
     the wavelengths RGB stands for; gold reflects red most and blue least. Unknown names,
     and a name with an explicit index, are errors naming the place."""
-    from volpath import _core, metals
+    from volpath import _probes, metals
     from volpath.plugins.params import RGB_WAVELENGTHS
 
     metal = '<shape type="sphere"><bsdf type="conductor"><string name="material" value="{}"/>{}</bsdf></shape>'
     u = np.random.default_rng(1).random((8, 3))
     for name in ("Au", "Ag", "Cu_palik"):
         scene = volpath.load_string(S.scene(S.camera(res=4), metal.format(name, "")))
-        weight = _core.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u).mean(axis=0)
+        weight = _probes.bsdf_sample_weight(scene.native, 0, (0.0, 0.0, 1.0), u).mean(axis=0)
         eta, k = metals.eta_k(name, RGB_WAVELENGTHS)
         eta, k = eta / 1.000277, k / 1.000277
         np.testing.assert_allclose(weight, ((eta - 1) ** 2 + k**2) / ((eta + 1) ** 2 + k**2), rtol=1e-6)

@@ -70,7 +70,7 @@ def test_a_shared_plane_renders_as_a_zero_gap(touching, apart):
 def test_only_boundaries_a_surface_may_lie_on_look_around():
     """The look costs a ray query per crossing: only flat null boundaries that a flat
     surface may touch pay it (none of the bench scenes' do)."""
-    from volpath import _core
+    from volpath import _probes
 
-    assert _core.boundary_with_contact(scene().native) == [False, True]  # the floor, the box
-    assert _core.boundary_with_contact(scene(box_gap=GAP).native) == [False, False]
+    assert _probes.boundary_with_contact(scene().native) == [False, True]  # the floor, the box
+    assert _probes.boundary_with_contact(scene(box_gap=GAP).native) == [False, False]

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _probes
 from volpath.meshes import write_ply
 
 coord = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
@@ -55,7 +55,7 @@ def test_shared_edges_are_watertight(tmp_path_factory, centre, radius, angles, t
     side = rng.choice([-1.0, 1.0], size=(16, 1))
     origins = target + lift * radius * (side * normal + 0.5 * rng.normal(size=(16, 3)))
     dirs = target - origins
-    t, shape, _ = _core.intersect(scene.native, origins, dirs)
+    t, shape, _ = _probes.intersect(scene.native, origins, dirs)
     expected = np.linalg.norm(dirs, axis=1)
     assert np.all(shape == 0), "a ray slipped between the two triangles"
     assert np.all(np.abs(t - expected) <= 1e-9 * (1 + np.abs(origins).max() + expected))
@@ -85,7 +85,7 @@ def test_spheres_far_from_the_origin(cx, cy, cz, r, dist, theta, phi):
             f'value="{cx!r}, {cy!r}, {cz!r}"/><float name="radius" value="{r!r}"/></shape>',
         )
     )
-    t, shape, _ = _core.intersect(scene.native, o[None], -d[None])
+    t, shape, _ = _probes.intersect(scene.native, o[None], -d[None])
     assert shape[0] == 0
     scale = np.abs(o).max() + r
     assert abs(t[0] - (dist - 1) * r) <= 1e-9 * scale
@@ -141,8 +141,8 @@ def test_boxes_hit_like_their_twelve_triangles(seed, log_scale, offset, aligned,
     outside = centre + size * rng.uniform(1.5, 3.0, (32, 3)) * rng.choice([-1.0, 1.0], (32, 3))
     origins = np.vstack([inside, outside])
     dirs = np.vstack([rng.normal(size=(32, 3)), centre + (rng.uniform(-0.9, 0.9, (32, 3)) @ lin.T) - outside])
-    t_box, hit_box, n_box = _core.intersect(box.native, origins, dirs)
-    t_mesh, hit_mesh, n_mesh = _core.intersect(mesh.native, origins, dirs)
+    t_box, hit_box, n_box = _probes.intersect(box.native, origins, dirs)
+    t_mesh, hit_mesh, n_mesh = _probes.intersect(mesh.native, origins, dirs)
     assert np.array_equal(hit_box, hit_mesh) and np.all(hit_box == 0)
     tol = 1e-9 * (np.abs(origins).max() + size.max())
     assert np.all(np.abs(t_box - t_mesh) <= tol)
@@ -192,11 +192,11 @@ def test_rays_inside_an_empty_container_hit_it_first(seed, box, inner):
         q[:3, :3], q[:3, 3] = np.diag(rng.uniform(0.1, 0.3, 3)), inside
         others.append(f'<shape type="cube"><transform name="to_world">{_matrix_text(q)}</transform></shape>')
     native = volpath.load_string(S.scene(S.camera(res=2), medium, container, *others)).native
-    assert (_core.medium_containers(native)[0] == 0) == (inner == 0)
+    assert (_probes.medium_containers(native)[0] == 0) == (inner == 0)
     origins = np.vstack([m[:3, 3] + rng.uniform(-0.7, 0.7, (48, 3)) @ lin.T, rng.uniform(-6, 6, (16, 3))])
     dirs = rng.normal(size=(64, 3))
-    t_fast, shape_fast, n_fast = _core.intersect(native, origins, dirs, 0)
-    t, shape, n = _core.intersect(native, origins, dirs)
+    t_fast, shape_fast, n_fast = _probes.intersect(native, origins, dirs, 0)
+    t, shape, n = _probes.intersect(native, origins, dirs)
     assert np.array_equal(shape_fast, shape)
     assert np.array_equal(t_fast, t) and np.array_equal(n_fast, n)
 
@@ -239,12 +239,12 @@ def test_rays_leaving_the_enclosure_meet_nothing_the_traversal_would(seed, box, 
             '<float name="radius" value="0.3"/></shape>'
         )
     native = volpath.load_string(S.scene(S.camera(res=2), enclosure, *others)).native
-    assert _core.enclosure(native) == (-1 if poke_out else 0)
+    assert _probes.enclosure(native) == (-1 if poke_out else 0)
     # Origins inside, outside, and just past the surface where rays from inside leave it.
     centre = m[:3, 3]
     o_in = centre + rng.uniform(-0.4, 0.4, (32, 3)) @ lin.T
     d_in = rng.normal(size=(32, 3))
-    t, shape, n = _core.intersect(native, o_in, d_in)
+    t, shape, n = _probes.intersect(native, o_in, d_in)
     exits = (shape == 0) & np.isfinite(t)
     d_unit = d_in / np.linalg.norm(d_in, axis=1, keepdims=True)
     p_exit = o_in[exits] + t[exits, None] * d_unit[exits]
@@ -254,7 +254,7 @@ def test_rays_leaving_the_enclosure_meet_nothing_the_traversal_would(seed, box, 
     out_dirs = np.where((np.sum(out_dirs * n_out, axis=1) < 0)[:, None], -out_dirs, out_dirs)
     origins = np.vstack([o_in, rng.uniform(-6, 6, (32, 3)), surface, surface])
     dirs = np.vstack([d_in, rng.normal(size=(32, 3)), out_dirs, d_unit[exits]])
-    t_fast, shape_fast, n_fast = _core.intersect(native, origins, dirs, -1)
-    t, shape, n = _core.intersect(native, origins, dirs)
+    t_fast, shape_fast, n_fast = _probes.intersect(native, origins, dirs, -1)
+    t, shape, n = _probes.intersect(native, origins, dirs)
     assert np.array_equal(shape_fast, shape)
     assert np.array_equal(t_fast, t) and np.array_equal(n_fast, n)

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _probes
 from volpath.grids import write_vol
 
 
@@ -47,12 +47,12 @@ def test_majorant_grid_bounds_the_density_everywhere(tmp_path_factory, shape, ch
     for _ in range(20):
         o = rng.uniform(-3, 3, 3)
         d = rng.normal(size=3)
-        segs = _core.majorant_segments(scene.native, 0, tuple(o), tuple(d), 100.0)
+        segs = _probes.majorant_segments(scene.native, 0, tuple(o), tuple(d), 100.0)
         d /= np.linalg.norm(d)
         assert np.all(segs[1:, 0] >= segs[:-1, 1] - 1e-12)  # ordered, not overlapping
         for t0, t1, *bounds in segs:
             ts = np.linspace(t0, t1, 17)
-            sigma = _core.medium_sigma_t(scene.native, 0, o + ts[:, None] * d)
+            sigma = _probes.medium_sigma_t(scene.native, 0, o + ts[:, None] * d)
             maj, mn = np.array(bounds[:3]), np.array(bounds[3:])
             assert np.all(sigma <= maj * (1 + 1e-6) + 1e-9)
             assert np.all(sigma >= mn * (1 - 1e-6) - 1e-9)
@@ -61,7 +61,7 @@ def test_majorant_grid_bounds_the_density_everywhere(tmp_path_factory, shape, ch
 def test_local_majorants_cover_the_whole_ray_inside_the_grid(tmp_path):
     data = np.random.default_rng(1).uniform(0, 1, (8, 8, 8, 1)).astype(np.float32)
     scene = grid_scene(tmp_path, data)
-    segs = _core.majorant_segments(scene.native, 0, (-5.0, 0.1, 0.2), (1.0, 0.05, -0.02), 100.0)
+    segs = _probes.majorant_segments(scene.native, 0, (-5.0, 0.1, 0.2), (1.0, 0.05, -0.02), 100.0)
     assert abs(segs[0, 0] - (5 - 1) * np.sqrt(1 + 0.05**2 + 0.02**2)) < 1e-9
     assert np.allclose(segs[1:, 0], segs[:-1, 1])
     assert len(segs) > 8  # crosses many cells
@@ -81,10 +81,10 @@ def test_voxelised_slab_transmittance_matches_the_closed_form(tmp_path):
     n = len(z_values)
     tau = 0.5 / n * (z_values[0] + z_values[-1]) + sum((z_values[i] + z_values[i + 1]) / 2 / n for i in range(n - 1))
     o, d = (0.3, 0.6, -1.0), (0.0, 0.0, 1.0)
-    assert abs(_core.optical_depth(scene.native, 0, o, d, 10.0, 512)[0] - tau) < 1e-6
-    mean, se = _core.ratio_tracking(scene.native, 0, o, d, 10.0, 20000, 3)
+    assert abs(_probes.optical_depth(scene.native, 0, o, d, 10.0, 512)[0] - tau) < 1e-6
+    mean, se = _probes.ratio_tracking(scene.native, 0, o, d, 10.0, 20000, 3)
     assert abs(mean[0] - np.exp(-tau)) < 5 * se[0] + 1e-9
-    mean_r, se_r = _core.ratio_tracking(scene.native, 0, o, d, 10.0, 20000, 3, residual=True)
+    mean_r, se_r = _probes.ratio_tracking(scene.native, 0, o, d, 10.0, 20000, 3, residual=True)
     assert abs(mean_r[0] - np.exp(-tau)) < 5 * se_r[0] + 1e-9
     assert se_r[0] < se[0]
 
@@ -102,7 +102,7 @@ def test_residual_ratio_tracking_matches_quadrature_per_channel(tmp_path):
     for _ in range(20):
         o = rng.uniform(-3, 3, 3)
         d = rng.normal(size=3)
-        tau = np.array(_core.optical_depth(scene.native, 0, tuple(o), tuple(d), 100.0, 512))
+        tau = np.array(_probes.optical_depth(scene.native, 0, tuple(o), tuple(d), 100.0, 512))
         for residual in (False, True):
-            mean, se = _core.ratio_tracking(scene.native, 0, tuple(o), tuple(d), 100.0, 4000, 5, residual=residual)
+            mean, se = _probes.ratio_tracking(scene.native, 0, tuple(o), tuple(d), 100.0, 4000, 5, residual=residual)
             assert np.all(np.abs(np.array(mean) - np.exp(-tau)) < 5 * np.array(se) + 1e-5), (residual, mean, tau)

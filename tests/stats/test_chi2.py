@@ -11,7 +11,7 @@ import pytest
 
 import scenes as S
 import volpath
-from volpath import _core
+from volpath import _probes
 from volpath.testing import chi2_directions, chi2_pooled
 
 N = 200_000
@@ -24,12 +24,12 @@ def uniforms(n, dims, seed=1):
 
 @pytest.mark.parametrize("g", [-0.999, -0.9, -0.3, 0.0, 0.5, 0.95, 0.999])
 def test_phase_hg(g):
-    dirs, pdfs = _core.phase_sample(g, uniforms(N, 2))
+    dirs, pdfs = _probes.phase_sample(g, uniforms(N, 2))
     # The sampled pdf equals the phase function (exact sampling).
     mu = dirs[:, 2]
-    assert np.allclose(pdfs, [_core.phase_eval(g, m) for m in mu[:1000]] + list(pdfs[1000:]))
+    assert np.allclose(pdfs, [_probes.phase_eval(g, m) for m in mu[:1000]] + list(pdfs[1000:]))
     # Symmetric about the incident direction: the marginal of mu is 2 pi p(mu).
-    assert chi2_directions(dirs, None, N, z_marginal=lambda z: 2 * np.pi * _core.phase_eval(g, z)) > P_MIN
+    assert chi2_directions(dirs, None, N, z_marginal=lambda z: 2 * np.pi * _probes.phase_eval(g, z)) > P_MIN
 
 
 def _light_scene(emitter_xml, extra=""):
@@ -64,10 +64,10 @@ LIGHTS = {
 def test_light_sampling(name):
     xml, ref = LIGHTS[name]
     scene = _light_scene(xml)
-    dirs, pdfs = _core.light_sample(scene.native, 0, ref, uniforms(N, 2))
+    dirs, pdfs = _probes.light_sample(scene.native, 0, ref, uniforms(N, 2))
     ok = pdfs > 0
     assert ok.mean() > 0.99
-    pdf = lambda d: _core.light_pdf(scene.native, 0, ref, d)
+    pdf = lambda d: _probes.light_pdf(scene.native, 0, ref, d)
     # The pdf the sampler reports equals the pdf of the same direction found by tracing.
     assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
     # 64 x 64 quadrature points per bin resolve the light's silhouette.
@@ -88,9 +88,9 @@ def test_envmap_sampling(tmp_path):
         ),
         base_dir=str(tmp_path),
     )
-    dirs, pdfs = _core.light_sample(scene.native, 0, (0, 0, 0), uniforms(N, 2))
+    dirs, pdfs = _probes.light_sample(scene.native, 0, (0, 0, 0), uniforms(N, 2))
     ok = pdfs > 0
-    pdf = lambda d: _core.light_pdf(scene.native, 0, (0, 0, 0), d)
+    pdf = lambda d: _probes.light_pdf(scene.native, 0, (0, 0, 0), d)
     assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
     assert chi2_directions(dirs[ok], pdf, N, sub=64) > P_MIN
 
@@ -107,9 +107,9 @@ def test_envmap_sampling(tmp_path):
 )
 def test_bsdf_sampling(bsdf, wi):
     scene = volpath.load_string(S.scene(S.camera(res=4), f'<shape type="sphere">{bsdf}</shape>'))
-    dirs, pdfs = _core.bsdf_sample(scene.native, 0, wi, uniforms(N, 3))
+    dirs, pdfs = _probes.bsdf_sample(scene.native, 0, wi, uniforms(N, 3))
     ok = pdfs > 0
-    pdf = lambda d: _core.bsdf_pdf(scene.native, 0, wi, d)
+    pdf = lambda d: _probes.bsdf_pdf(scene.native, 0, wi, d)
     assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
     assert chi2_directions(dirs[ok], pdf, N) > P_MIN
 
@@ -128,9 +128,9 @@ def test_rough_dielectric_sampling(alpha, wi):
     roughness (by 1 - 1/eta from outside)."""
     wi = tuple(np.asarray(wi) / np.linalg.norm(wi))
     scene = volpath.load_string(S.scene(S.camera(res=4), f'<shape type="sphere">{ROUGH_GLASS.format(alpha)}</shape>'))
-    dirs, pdfs = _core.bsdf_sample(scene.native, 0, wi, uniforms(N, 3))
+    dirs, pdfs = _probes.bsdf_sample(scene.native, 0, wi, uniforms(N, 3))
     ok = pdfs > 0
-    pdf = lambda d: _core.bsdf_pdf(scene.native, 0, wi, d)
+    pdf = lambda d: _probes.bsdf_pdf(scene.native, 0, wi, d)
     assert np.allclose(pdfs[ok][:200], pdf(dirs[ok][:200]), rtol=1e-6)
     axis = np.median(dirs[ok][dirs[ok][:, 2] * wi[2] < 0], axis=0) if (dirs[ok][:, 2] * wi[2] < 0).any() else None
     assert chi2_directions(dirs[ok], pdf, N, sub=32, axis=axis) > P_MIN
@@ -149,9 +149,9 @@ def test_rough_dielectric_conserves_energy_and_tends_to_fresnel(wi):
             S.scene(S.camera(res=4), f'<shape type="sphere">{ROUGH_GLASS.format(alpha)}</shape>')
         )
         u = uniforms(N, 3, seed=5)
-        dirs, pdfs = _core.bsdf_sample(scene.native, 0, tuple(wi), u)
+        dirs, pdfs = _probes.bsdf_sample(scene.native, 0, tuple(wi), u)
         ok = pdfs > 0
-        f = _core.bsdf_eval(scene.native, 0, tuple(wi), dirs[ok])[:, 0]
+        f = _probes.bsdf_eval(scene.native, 0, tuple(wi), dirs[ok])[:, 0]
         reflected = dirs[ok][:, 2] * wi[2] > 0
         etap = np.where(reflected, 1.0, eta if wi[2] > 0 else 1 / eta)
         energy = np.zeros(N)
@@ -189,16 +189,16 @@ def test_equiangular_distances(c, o, d, t0, t1):
     and t stays in [t0, t1], increasing with u."""
     u = np.linspace(0.001, 0.999, 999)
     h = 1e-6
-    t, pdf = _core.equiangular_sample(c, o, d, t0, t1, u)
-    t_lo, _ = _core.equiangular_sample(c, o, d, t0, t1, u - h)
-    t_hi, _ = _core.equiangular_sample(c, o, d, t0, t1, u + h)
+    t, pdf = _probes.equiangular_sample(c, o, d, t0, t1, u)
+    t_lo, _ = _probes.equiangular_sample(c, o, d, t0, t1, u - h)
+    t_hi, _ = _probes.equiangular_sample(c, o, d, t0, t1, u + h)
     assert np.all(np.diff(t) > 0) and t[0] >= t0 and t[-1] <= t1
     assert np.allclose((t_hi - t_lo) / (2 * h) * pdf, 1, rtol=1e-3)
     d = np.asarray(d) / np.linalg.norm(d)
     r2 = np.sum((np.asarray(o) + t[:, None] * d - np.asarray(c)) ** 2, axis=1)
     assert np.allclose(pdf * r2, np.mean(pdf * r2), rtol=1e-9)
     with pytest.raises(ValueError):
-        _core.equiangular_sample(c, c, d, t0, t1, u)  # the line passes through the light
+        _probes.equiangular_sample(c, c, d, t0, t1, u)  # the line passes through the light
 
 
 # Each light with where it is seen from: (xml, position or None, direction toward it or None).
@@ -255,7 +255,7 @@ def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
     from scipy.integrate import quad
 
     scene = _light_scene(light[0]).native
-    count = _core.light_distance_count(scene, 0, o, d, t0, t1, sigma_t)
+    count = _probes.light_distance_count(scene, 0, o, d, t0, t1, sigma_t)
     assert count == (2 if near else 1)
     peak = float(np.dot(np.asarray(light[1] or (0, 0, 0)) - o, np.asarray(d) / np.linalg.norm(d)))
 
@@ -265,7 +265,7 @@ def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
         return quad(f, a, b, limit=200)[0]
 
     for k in range(count):
-        t, density = _core.light_distance_sample(scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1)[:, 0])
+        t, density = _probes.light_distance_sample(scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1)[:, 0])
         assert np.all(np.isfinite(t)) and np.all((t >= t0) & (t <= t1))
         expected = [_expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x) for x in t[:500]]
         assert np.allclose(density[:500], [e + (q if near else 0) for e, q in expected], rtol=1e-9)
@@ -274,12 +274,12 @@ def test_light_distances(light, o, d, t0, t1, sigma_t, channel, near):
             exponential, equiangular = _expected_light_distance_pdfs(light, o, d, t0, t1, sigma_t, x)
             return exponential[channel] if k == 0 else equiangular
 
-        t_ref, _ = _core.light_distance_sample(
+        t_ref, _ = _probes.light_distance_sample(
             scene, 0, o, d, t0, t1, sigma_t, channel, k, uniforms(N, 1, seed=2)[:, 0]
         )
         edges = np.concatenate([[t0], np.quantile(t_ref, np.linspace(0, 1, 41)[1:-1]), [t1]])
         expected_counts = np.array([integral(own, a, b) for a, b in zip(edges[:-1], edges[1:])]) * N
         assert chi2_pooled(np.histogram(t, edges)[0], expected_counts) > P_MIN
     for c in range(3):
-        total = integral(lambda x: _core.light_distance_density(scene, 0, o, d, t0, t1, sigma_t, x)[c], t0, t1)
+        total = integral(lambda x: _probes.light_distance_density(scene, 0, o, d, t0, t1, sigma_t, x)[c], t0, t1)
         assert total == pytest.approx(count, abs=1e-4)

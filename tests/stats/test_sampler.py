@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from volpath import _core
+from volpath import _probes
 
 
 @pytest.mark.parametrize("dimension", [0, 1, 5, 23])
@@ -14,7 +14,7 @@ def test_2d_dimensions_are_0_2_nets(dimension):
     1 x 1/64 to 1/64 x 1) holds exactly one point. A deterministic property of a scrambled
     (0, 2)-sequence, for every dimension that is low-discrepancy (the first 24)."""
     for pixel in range(20):
-        pts = _core.sampler_values(3, pixel, 64, dimension + 1, True, True)[:, dimension]
+        pts = _probes.sampler_values(3, pixel, 64, dimension + 1, True, True)[:, dimension]
         for k in range(7):
             cells = np.floor(pts[:, 0] * 2**k).astype(int) * 2 ** (6 - k) + np.floor(pts[:, 1] * 2 ** (6 - k)).astype(
                 int
@@ -28,9 +28,9 @@ def test_1d_dimensions_are_stratified(split_after):
     dimensions of a stream split off a sample (the camera's second branch in a medium),
     whose scrambles must depend on the pixel, not on the sample."""
     for pixel in range(20):
-        v = _core.sampler_values(5, pixel, 64, 24, True, False, split_after)
+        v = _probes.sampler_values(5, pixel, 64, 24, True, False, split_after)
         assert np.array_equal(np.sort(np.floor(v * 64).astype(int), axis=0), np.tile(np.arange(64)[:, None], (1, 24)))
-    parent, split = (_core.sampler_values(5, 0, 64, 24, True, False, s) for s in (-1, 0))
+    parent, split = (_probes.sampler_values(5, 0, 64, 24, True, False, s) for s in (-1, 0))
     assert not np.allclose(parent, split)
 
 
@@ -39,7 +39,7 @@ def test_uniform_and_independent_across_pixels(low_discrepancy):
     """Over 4000 pixels x 4 samples, every dimension (low-discrepancy ones and those after)
     is uniform (Kolmogorov-Smirnov, p > 1e-4 for each of 30: a false alarm about once in
     300 runs) and pairs of dimensions are uncorrelated (|r| < 5 / sqrt(n): 5 sigma)."""
-    v = np.concatenate([_core.sampler_values(11, p, 4, 30, low_discrepancy, False) for p in range(4000)])
+    v = np.concatenate([_probes.sampler_values(11, p, 4, 30, low_discrepancy, False) for p in range(4000)])
     for d in range(v.shape[1]):
         assert stats.kstest(v[:, d], "uniform").pvalue > 1e-4, d
     r = np.corrcoef(v.T)
@@ -57,7 +57,7 @@ def test_a_chain_of_choices_from_one_uniform_keeps_their_probabilities(low_discr
     once in 10^4 runs); a remap that kept u unchanged fails at p ~ 0."""
     rng = np.random.default_rng(4)
     probabilities = np.concatenate([[0.3, 0.0, 0.5], rng.uniform(0.08, 0.12, 57)])
-    counts = np.array(_core.choice_chain_counts(list(probabilities), 7, 3125, 32, low_discrepancy))
+    counts = np.array(_probes.choice_chain_counts(list(probabilities), 7, 3125, 32, low_discrepancy))
     survive = np.concatenate([[1.0], np.cumprod(1 - probabilities)])
     assert 1 / survive[-1] > 2**10
     expected = np.append(probabilities * survive[:-1], survive[-1]) * counts.sum()
@@ -68,8 +68,8 @@ def test_a_chain_of_choices_from_one_uniform_keeps_their_probabilities(low_discr
 
 
 def test_seeds_give_independent_scrambles():
-    a = _core.sampler_values(1, 0, 16, 4, True, True)
-    b = _core.sampler_values(2, 0, 16, 4, True, True)
+    a = _probes.sampler_values(1, 0, 16, 4, True, True)
+    b = _probes.sampler_values(2, 0, 16, 4, True, True)
     assert not np.allclose(a, b)
 
 
@@ -83,7 +83,7 @@ def test_error_of_a_smooth_integrand_falls_faster():
     def rms_error(n, ld):
         errors = []
         for pixel in range(200):
-            p = _core.sampler_values(17, pixel, n, 1, ld, True)[:, 0]
+            p = _probes.sampler_values(17, pixel, n, 1, ld, True)[:, 0]
             errors.append(np.mean(np.sin(np.pi * p[:, 0]) * np.exp(p[:, 1])) - exact)
         return np.sqrt(np.mean(np.square(errors)))
 

@@ -65,9 +65,11 @@ def build(b, d, key=None):
             to_sun = -direction / np.linalg.norm(direction)
         else:
             # Y is up; azimuth turns from -z towards +x.
-            e = math.radians(p.float("elevation", 30.0))
+            elevation = math.radians(p.float("elevation", 30.0))
             a = math.radians(p.float("azimuth", 0.0))
-            to_sun = np.array([math.cos(e) * math.sin(a), math.sin(e), -math.cos(e) * math.cos(a)])
+            to_sun = np.array(
+                [math.cos(elevation) * math.sin(a), math.sin(elevation), -math.cos(elevation) * math.cos(a)]
+            )
         radius = p.float("angular_radius", 0.004675, positive=True)
         if radius >= 0.5:
             raise p.error("'angular_radius' must be below 0.5 rad")

@@ -18,10 +18,6 @@ def rayleigh_coefficient(wavelength_nm, n=1.00029, N=2.504e25):
 
 # Atmosphere presets, in metres. Bruneton 2017 / Hillaire 2020 is the physically sound
 # default; "report" reproduces the physics of the original course report.
-
-
-# Atmosphere presets, in metres. Bruneton 2017 / Hillaire 2020 is the physically sound
-# default; "report" reproduces the physics of the original course report.
 ATMOSPHERE_PRESETS = {
     "bruneton": dict(
         planet_radius=6360e3,

@@ -229,6 +229,15 @@ public:
     bool next(MajorantSegment &seg);
 
 private:
+    // Per kind of medium: where the walk starts (false: the ray misses the medium), and
+    // the next piece.
+    bool start(const HomogeneousMedium &);
+    bool start(const GridMedium &g);
+    bool start(const AtmosphereMedium &air);
+    bool next(const HomogeneousMedium &h, MajorantSegment &seg);
+    bool next(const GridMedium &grid, MajorantSegment &seg);
+    bool next(const AtmosphereMedium &air, MajorantSegment &seg);
+
     const Medium *medium_ = nullptr;  // null: nothing left
     Ray ray_;
     Real t_ = 0, t_end_ = 0;  // what is left of the ray: [t_, t_end_]
@@ -236,7 +245,6 @@ private:
     Real t_start_ = 0;
     int piece_ = 0, pieces_ = 0;
     // DDA state (grid media only).
-    const GridMedium *grid_ = nullptr;
     int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
     Real t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0};
 };

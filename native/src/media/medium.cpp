@@ -58,9 +58,12 @@ bool clip_to_unit_cube(const Vec3 &o, const Vec3 &d, const Vec3 &inv_d, Real &t0
 }  // namespace
 
 bool is_emissive(const Medium &m) {
-    if (const auto *h = std::get_if<HomogeneousMedium>(&m)) return !is_black(h->Le) && !is_black(h->sigma_a);
-    if (const auto *g = std::get_if<GridMedium>(&m)) return !is_black(g->Le_scale);
-    return false;
+    struct Emissive {
+        bool operator()(const HomogeneousMedium &h) const { return !is_black(h.Le) && !is_black(h.sigma_a); }
+        bool operator()(const GridMedium &g) const { return !is_black(g.Le_scale); }
+        bool operator()(const AtmosphereMedium &) const { return false; }
+    };
+    return std::visit(Emissive{}, m);
 }
 
 MediumProperties medium_properties(const Medium &m, const Vec3 &p) { return std::visit(Properties{p}, m); }
@@ -68,24 +71,28 @@ MediumProperties medium_properties(const Medium &m, const Vec3 &p) { return std:
 PhaseFunction medium_phase(const Medium &m, const Vec3 &p) { return std::visit(Phase{p}, m); }
 
 void prepare_medium(Medium &m) {
-    if (auto *air = std::get_if<AtmosphereMedium>(&m)) {
-        if (air->free_flight == AtmosphereMedium::FreeFlight::Guided &&
-            air->sun_transmittance == AtmosphereMedium::SunTransmittance::Tracking)
-            throw std::invalid_argument(
-                "free_flight='guided' takes transmittances by quadrature: it needs "
-                "sun_transmittance 'table' or 'quadrature', not 'tracking'");
-        // The guided free flight reads the sun's transmittance from the table too.
-        if (air->sun_transmittance == AtmosphereMedium::SunTransmittance::Table ||
-            air->free_flight == AtmosphereMedium::FreeFlight::Guided)
-            build_tau_table(*air);
-    }
-    if (auto *grid = std::get_if<GridMedium>(&m)) {
-        const int *r = grid->density.grid->res;
-        const int longest = std::max({r[0], r[1], r[2]});
-        const int automatic = std::max((longest + 9) / 10, std::min(longest, 16));
-        const int res = std::clamp(grid->majorant_res > 0 ? grid->majorant_res : automatic, 1, kMaxMajorantGridRes);
-        grid->majorants = build_majorants(*grid->density.grid, res);
-    }
+    struct Prepare {
+        void operator()(HomogeneousMedium &) const {}
+        void operator()(GridMedium &grid) const {
+            const int *r = grid.density.grid->res;
+            const int longest = std::max({r[0], r[1], r[2]});
+            const int automatic = std::max((longest + 9) / 10, std::min(longest, 16));
+            const int res = std::clamp(grid.majorant_res > 0 ? grid.majorant_res : automatic, 1, kMaxMajorantGridRes);
+            grid.majorants = build_majorants(*grid.density.grid, res);
+        }
+        void operator()(AtmosphereMedium &air) const {
+            if (air.free_flight == AtmosphereMedium::FreeFlight::Guided &&
+                air.sun_transmittance == AtmosphereMedium::SunTransmittance::Tracking)
+                throw std::invalid_argument(
+                    "free_flight='guided' takes transmittances by quadrature: it needs "
+                    "sun_transmittance 'table' or 'quadrature', not 'tracking'");
+            // The guided free flight reads the sun's transmittance from the table too.
+            if (air.sun_transmittance == AtmosphereMedium::SunTransmittance::Table ||
+                air.free_flight == AtmosphereMedium::FreeFlight::Guided)
+                build_tau_table(air);
+        }
+    };
+    std::visit(Prepare{}, m);
 }
 
 Spectrum majorant_optical_depth(const Medium &m, const Ray &ray, Real t_max) {
@@ -128,61 +135,72 @@ Spectrum sun_optical_depth(const Medium &medium, const Ray &ray, Real t_max) {
 
 MajorantIterator::MajorantIterator(const Medium &m, const Ray &ray, Real t_max) : ray_(ray) {
     t_ = ray.t_min, t_end_ = t_max;
-    if (const auto *g = std::get_if<GridMedium>(&m)) {
-        // 3D DDA through the majorant cells (Amanatides & Woo), in grid space where the
-        // ray's parameter is still the world distance.
-        const Transform &to_grid = g->density.world_to_grid;
-        const Vec3 o = to_grid.point(ray.o), d = to_grid.vector(ray.d);
-        const Vec3 inv_d(1 / d.x, 1 / d.y, 1 / d.z);  // used only where d[a] != 0
-        if (!clip_to_unit_cube(o, d, inv_d, t_, t_end_)) return;
-        grid_ = g;
-        const int res = g->majorants.res;
-        const Real inv_res = 1.0 / res;
-        const Vec3 p0 = o + d * t_;
-        for (int a = 0; a < 3; ++a) {
-            cell_[a] = std::clamp(int(p0[a] * res), 0, res - 1);
-            if (d[a] == 0) {
-                step_[a] = 0, t_next_[a] = kInfinity, t_delta_[a] = kInfinity;
-                continue;
-            }
-            step_[a] = d[a] > 0 ? 1 : -1;
-            const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) * inv_res;
-            t_next_[a] = t_ + (boundary - p0[a]) * inv_d[a];
-            t_delta_[a] = std::abs(inv_d[a]) * inv_res;
+    if (std::visit([&](const auto &medium) { return start(medium); }, m) && t_ < t_end_) medium_ = &m;
+}
+
+bool MajorantIterator::start(const HomogeneousMedium &) { return true; }
+
+// 3D DDA through the majorant cells (Amanatides & Woo), in grid space where the ray's
+// parameter is still the world distance.
+bool MajorantIterator::start(const GridMedium &g) {
+    const Transform &to_grid = g.density.world_to_grid;
+    const Vec3 o = to_grid.point(ray_.o), d = to_grid.vector(ray_.d);
+    const Vec3 inv_d(1 / d.x, 1 / d.y, 1 / d.z);  // used only where d[a] != 0
+    if (!clip_to_unit_cube(o, d, inv_d, t_, t_end_)) return false;
+    const int res = g.majorants.res;
+    const Real inv_res = 1.0 / res;
+    const Vec3 p0 = o + d * t_;
+    for (int a = 0; a < 3; ++a) {
+        cell_[a] = std::clamp(int(p0[a] * res), 0, res - 1);
+        if (d[a] == 0) {
+            step_[a] = 0, t_next_[a] = kInfinity, t_delta_[a] = kInfinity;
+            continue;
         }
-    } else if (const auto *air = std::get_if<AtmosphereMedium>(&m)) {
-        // Clipped to the top of the atmosphere and cut into equal pieces.
-        Real r0, r1;
-        if (!sphere_roots(air->center, air->top_radius, ray.o, ray.d, r0, r1)) return;
-        t_ = std::max(t_, r0), t_end_ = std::min(t_end_, r1);
-        t_start_ = t_, pieces_ = std::clamp(air->pieces, 1, kMaxMajorantSegments);
+        step_[a] = d[a] > 0 ? 1 : -1;
+        const Real boundary = Real(cell_[a] + (d[a] > 0 ? 1 : 0)) * inv_res;
+        t_next_[a] = t_ + (boundary - p0[a]) * inv_d[a];
+        t_delta_[a] = std::abs(inv_d[a]) * inv_res;
     }
-    if (t_ < t_end_) medium_ = &m;
+    return true;
+}
+
+// Clipped to the top of the atmosphere and cut into equal pieces.
+bool MajorantIterator::start(const AtmosphereMedium &air) {
+    Real r0, r1;
+    if (!sphere_roots(air.center, air.top_radius, ray_.o, ray_.d, r0, r1)) return false;
+    t_ = std::max(t_, r0), t_end_ = std::min(t_end_, r1);
+    t_start_ = t_, pieces_ = std::clamp(air.pieces, 1, kMaxMajorantSegments);
+    return true;
 }
 
 bool MajorantIterator::next(MajorantSegment &seg) {
-    if (!medium_) return false;
-    if (const auto *h = std::get_if<HomogeneousMedium>(medium_)) {
-        const Spectrum sigma_t = h->sigma_a + h->sigma_s;
-        seg = {t_, t_end_, sigma_t, sigma_t};  // its own majorant and minorant
-        medium_ = nullptr;
-        return true;
-    }
-    if (const auto *air = std::get_if<AtmosphereMedium>(medium_)) {
-        const int i = piece_++;
-        const Real a = t_start_ + (t_end_ - t_start_) * i / pieces_;
-        const Real b = piece_ == pieces_ ? t_end_ : t_start_ + (t_end_ - t_start_) * piece_ / pieces_;
-        seg = {a, b, air_majorant(*air, ray_, a, b)};
-        if (piece_ == pieces_) medium_ = nullptr;
-        return true;
-    }
-    const MajorantGrid &mg = grid_->majorants;
+    return medium_ && std::visit([&](const auto &medium) { return next(medium, seg); }, *medium_);
+}
+
+bool MajorantIterator::next(const HomogeneousMedium &h, MajorantSegment &seg) {
+    const Spectrum sigma_t = h.sigma_a + h.sigma_s;
+    seg = {t_, t_end_, sigma_t, sigma_t};  // its own majorant and minorant
+    medium_ = nullptr;
+    return true;
+}
+
+bool MajorantIterator::next(const AtmosphereMedium &air, MajorantSegment &seg) {
+    const int i = piece_++;
+    const Real a = t_start_ + (t_end_ - t_start_) * i / pieces_;
+    const Real b = piece_ == pieces_ ? t_end_ : t_start_ + (t_end_ - t_start_) * piece_ / pieces_;
+    seg = {a, b, air_majorant(air, ray_, a, b)};
+    if (piece_ == pieces_) medium_ = nullptr;
+    return true;
+}
+
+bool MajorantIterator::next(const GridMedium &grid, MajorantSegment &seg) {
+    const MajorantGrid &mg = grid.majorants;
     while (t_ < t_end_) {
         const bool inside = cell_[0] >= 0 && cell_[0] < mg.res && cell_[1] >= 0 && cell_[1] < mg.res && cell_[2] >= 0 &&
                             cell_[2] < mg.res;
         if (!inside) {
             // Rounding left a sliver at the far end: cover it with the global bound.
-            seg = {t_, t_end_, mg.global_max * grid_->scale, Spectrum(0.0)};
+            seg = {t_, t_end_, mg.global_max * grid.scale, Spectrum(0.0)};
             t_ = t_end_;
             return true;
         }
@@ -195,7 +213,7 @@ bool MajorantIterator::next(MajorantSegment &seg) {
         cell_[axis] += step_[axis];
         t_next_[axis] += t_delta_[axis];
         if (t_end > start) {
-            seg = {start, t_end, cell.max * grid_->scale, cell.min * grid_->scale};
+            seg = {start, t_end, cell.max * grid.scale, cell.min * grid.scale};
             return true;
         }
     }

@@ -2,10 +2,22 @@
 camera (what Blender evaluated at that frame), and the grids of VDB sequences.
 
 An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
-``animation.json``; the Blender add-on writes it (``addon/export/animation.py``, where its
-format is described). ``render_frame`` is what a worker runs (a local process or a Dask
-worker): it needs only this package, never Blender. The animation arrives as a directory
-path or, for workers on other machines, as the bytes of a zip of that directory.
+``animation.json``::
+
+    {"suns": {"<scene key>": "<Blender object>"},
+     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4,
+                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...]}
+
+``suns``: the scene's sun emitters and the Sun lamps they came from; per frame, each lamp's
+direction (where its light travels, in scene coordinates) and the camera's ``to_world``
+(null without a camera). ``volumes`` only for VDB sequences: their grids at that frame, as
+scene-language volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting
+volume's radiance written sparse by volpath.xml_writer).
+
+The Blender add-on writes the directory (``addon/export/animation.py``). ``render_frame``
+is what a worker runs (a local process or a Dask worker): it needs volpath only, never
+Blender. The animation arrives as a directory path or, for workers on other machines, as
+the bytes of a zip of that directory.
 """
 
 import copy
@@ -19,7 +31,7 @@ import zipfile
 
 import numpy as np
 
-from .errors import SceneError
+from volpath import SceneError
 
 ANIMATION_FILE = "animation.json"
 SCENE_FILE = "scene.xml"
@@ -56,7 +68,7 @@ def pack(directory):
 
 def _load(source):
     """(scene dictionary, base directory, animation) for a directory or packed bytes."""
-    from .xml_reader import read_xml
+    from volpath.xml_reader import read_xml
 
     if isinstance(source, (bytes, bytearray)):
         key = hashlib.sha256(source).hexdigest()
@@ -117,9 +129,7 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, tar
     so a frame is the same bits wherever and however often it is rendered. With
     ``target_error`` the frame renders to that display error and ``spp`` is the cap;
     ``denoise`` passes it through Intel Open Image Denoise."""
-    from . import __version__
-    from .render import render
-    from .scene import load_dict
+    from volpath import __version__, load_dict, render
 
     d, directory, animation = _load(source)
     entries = [e for e in animation["frames"] if e["frame"] == frame]
