@@ -1,5 +1,7 @@
-// The five volumetric path tracers, each a superset of the previous one. They are one
-// estimator with features switched on in order, so they share every sampler:
+// The five volumetric path tracers, each a superset of the previous one. The absorption
+// tracer is an estimator of its own (integrators/absorption.cpp); the four that scatter are
+// one estimator with features switched on in order (integrators/volpath.cpp), so they share
+// every sampler:
 //
 //   absorption       L = T(camera -> first surface) Le, closed-form transmittance.
 //   single           + one real scattering event (medium or surface) lit by next-event

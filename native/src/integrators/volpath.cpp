@@ -1,21 +1,13 @@
 #include <optional>
 #include <stdexcept>
 
-#include "volpath/integrator.h"
+#include "common.h"
 #include "volpath/light_distances.h"
 #include "volpath/sky_map.h"
 
 namespace volpath {
 
 namespace {
-
-int medium_after_crossing(const ShapeInfo &shape, const Vec3 &d, const Vec3 &n, int current) {
-    if (!shape.medium_interface) return current;
-    return dot(d, n) > 0 ? shape.exterior : shape.interior;
-}
-
-// Rays that keep re-entering index-matched surfaces (coincident boundaries) stop here.
-constexpr int kMaxNullCrossings = 256;
 
 // Russian roulette keeps a path with probability min(throughput, kMaxSurvival). Near 1, so
 // that long walks in dense, bright media (albedo 0.98-0.99) are not cut for nothing;
@@ -32,21 +24,20 @@ constexpr Real kShadowRouletteT = 0.05;
 // the power heuristic. Returns w / a, what multiplies beta * L.
 Real mis_over_a(Real a, Real b, Real c = 0) { return a / (a * a + b * b + c * c); }
 
+// What the scattering tracers (all but absorption, absorption.cpp) do.
 struct Features {
-    bool scatter, nee, mis, emission_after_scatter;
+    bool nee, mis, emission_after_scatter;
     int max_depth;
 };
 
 Features features_of(const TracerConfig &c) {
     Features f{};
-    f.scatter = c.tracer != Tracer::Absorption;
     f.nee = c.tracer == Tracer::Single || c.tracer >= Tracer::NeeMis;
     f.mis = c.tracer >= Tracer::NeeMis;
     // Without NEE, emitters are found only by hitting them; with NEE but no MIS (single),
     // only the camera ray and specular chains may hit them, or light would count twice.
     f.emission_after_scatter = !f.nee || f.mis;
     f.max_depth = c.max_depth;
-    if (c.tracer == Tracer::Absorption) f.max_depth = 1;
     if (c.tracer == Tracer::Single) f.max_depth = c.max_depth < 0 ? 2 : std::min(c.max_depth, 2);
     return f;
 }
@@ -144,6 +135,114 @@ Spectrum free_flight_density(const SegmentVertex &v) {
     return v.r_start * v.sigma_t * T / v.pdf;
 }
 
+// What a shadow ray gathers on its way to the light: its transmittance, and the rescaled
+// pdfs of the light strategy (r_l) and of the path's own (r_u) that its tracking updates
+// (pbrt-v4's SampleLd), so that the MIS weights match those computed when the same path is
+// found by phase or BSDF sampling.
+struct Shadow {
+    Spectrum T{1.0}, r_l{1.0}, r_u{1.0};
+    bool left_guided_air = false;  // the last crossing led from guided air into vacuum
+};
+
+// The shadow ray's segment [ray.t_min, t_end] through medium m. False: nothing gets through.
+bool attenuate(const Medium &m, const Ray &ray, Real t_end, const Light &light, bool delta_light, int channel,
+               Sampler &sampler, Shadow &s) {
+    if (is_homogeneous(m)) {
+        // Closed form. Phase sampling would have to fly through without colliding, unless
+        // the medium only absorbs, where both strategies apply T in closed form.
+        const auto &h = std::get<HomogeneousMedium>(m);
+        const Spectrum T = exp(-(h.sigma_a + h.sigma_s) * (t_end - ray.t_min));
+        s.T *= T;
+        if (!is_black(h.sigma_s)) s.r_u *= T;
+    } else if (deterministic_through_air(light, m)) {
+        // Toward the sun through the air, T from a table (or by quadrature): at sunrise the
+        // shadow ray crosses an optical depth of tens, where ratio tracking's estimate is
+        // mostly noise. The error is the table's: T within 6e-4 of an exact integral
+        // (tests/native/test_atmosphere.py). For the MIS weights, the phase strategy's
+        // chance to fly through: T per channel under delta tracking, the channel average
+        // under the guided free flight, which decides for all channels at once.
+        const Spectrum T = exp(-sun_optical_depth(m, ray, t_end));
+        s.T *= T;
+        s.r_u *= guided_air(m) ? Spectrum(average(T)) : T;
+    } else {
+        // Ratio tracking. Toward a delta light, which no other strategy finds (no MIS, so
+        // r_u is not needed), residual ratio tracking: the minorants' share of the optical
+        // depth is exact, only the rest is tracked.
+        Spectrum tau_min(0.0), tau_seen(0.0), T_min(1.0);
+        const Spectrum T_maj = sample_T_maj(
+            m, ray, t_end, channel, sampler,
+            [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+                const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
+                const Real pdf = T_seg[channel] * sigma_maj[channel];
+                s.T *= T_seg * sigma_n / pdf;
+                s.r_l *= T_seg * sigma_maj / pdf;
+                s.r_u *= T_seg * sigma_n / pdf;
+                // Russian roulette on a transmittance estimate that got small (the
+                // minorants' part so far included: one exp per piece entered).
+                if (!(tau_min == tau_seen)) T_min = exp(-tau_min), tau_seen = tau_min;
+                const Spectrum Tr = s.T * T_min / average(s.r_l + s.r_u);
+                if (max_component(Tr) < 0.05) {
+                    if (sampler.independent_1d() < 0.75)
+                        s.T = Spectrum(0.0);
+                    else
+                        s.T /= 0.25;
+                }
+                return !is_black(s.T);
+            },
+            /*forced_probability=*/0, /*stratified=*/false, delta_light ? &tau_min : nullptr);
+        const Real pdf = T_maj[channel];
+        if (!(pdf > 0)) return false;
+        s.T *= T_maj / pdf * exp(-tau_min);
+        s.r_l *= T_maj / pdf;
+        s.r_u *= T_maj / pdf;
+    }
+    return !is_black(s.T);
+}
+
+// The probability that a shadow ray passes the surface it hit: 1 through a null boundary or
+// a shape hidden from shadow rays, a mask's chance to let it through, else 0. The path
+// through a mask would have had to draw that chance: both T and r_u take it.
+Real shadow_pass(const Scene &scene, const Intersection &its) {
+    const int bsdf = scene.shapes[its.shape].bsdf;
+    const BSDF &b = scene.bsdfs[size_t(bsdf)];
+    if (is_null(b) || scene.shapes[its.shape].hides_from(RayKind::Shadow)) return 1;
+    return is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its)) : 0;
+}
+
+// Traces the shadow ray (its t_max: the distance to the light) through index-matched
+// boundaries, masks and media, starting in medium `current`. False: occluded (nothing to
+// estimate, and no tracking paid for on the way there), or ended by Russian roulette.
+bool trace_shadow(const Scene &scene, Ray ray, int current, const Light &light, bool delta_light, int channel,
+                  Sampler &sampler, Shadow &s) {
+    Real remaining = ray.t_max;
+    for (int crossing = 0;; ++crossing) {
+        if (crossing > kMaxNullCrossings) return false;
+        Intersection its;
+        if (scene.shadows_stop_at_any_hit && scene.geometry.occluded(ray)) return false;
+        const bool hit = !scene.shadows_stop_at_any_hit && scene.intersect(ray, its, current);
+        if (hit) {
+            const Real pass = shadow_pass(scene, its);
+            if (pass == 0) return false;
+            if (pass < 1) s.T *= pass, s.r_u *= pass;
+        }
+        const Real t_end = hit ? its.t : ray.t_max;
+        if (current >= 0 && !attenuate(scene.media[current], ray, t_end, light, delta_light, channel, sampler, s))
+            return false;
+        if (!hit) return true;
+        const ShapeInfo &shape = scene.shapes[its.shape];
+        const int next = medium_after_crossing(shape, ray.d, its.n, current);
+        s.left_guided_air = next < 0 && current >= 0 && guided_air(scene.media[current]);
+        current = next;
+        remaining -= its.t;
+        ray = spawn_ray(its.p, its.n, ray.d, remaining);
+        // Russian roulette before tracing on, where the transmittance so far is small.
+        if (const Real T_max = max_component(s.T); T_max < kShadowRouletteT) [[unlikely]] {
+            if (!(sampler.independent_1d() * kShadowRouletteT < T_max)) return false;
+            s.T *= kShadowRouletteT / T_max;
+        }
+    }
+}
+
 // Next-event estimation from a scattering point: choose a light (uniformly among
 // Scene::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
 // sample a point on it and trace a shadow ray through index-matched boundaries and media.
@@ -181,111 +280,20 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     const Spectrum f = eval(ls.d, surface ? uint8_t(scene.light_hidden_from[size_t(light)] & kLobeRays) : uint8_t(0));
     if (is_black(f)) return Spectrum(0.0);
 
-    // Transmittance along the shadow ray. Homogeneous media have it in closed form;
-    // heterogeneous ones use ratio tracking, whose tentative collisions also update the
-    // rescaled pdfs (pbrt-v4's SampleLd), so that the MIS weights match those computed
-    // when the same path is found by phase or BSDF sampling.
-    Spectrum T_ray(1.0), r_l(1.0), r_u(1.0);
-    const Real remaining0 = std::isfinite(ls.dist) ? ls.dist * (1 - 1e-7) : kInfinity;
-    Ray ray = spawn_ray(p, n, ls.d, remaining0);
-    Real remaining = remaining0;
-    int current = surface ? medium_after_crossing(*surface, ls.d, n, medium) : medium;
-    bool left_guided_air = false;  // the last crossing led from guided air into vacuum
-    for (int crossing = 0; !unshadowed; ++crossing) {
-        if (crossing > kMaxNullCrossings) return Spectrum(0.0);
-        Intersection its;
-        if (scene.shadows_stop_at_any_hit && scene.geometry.occluded(ray)) return Spectrum(0.0);
-        const bool hit = !scene.shadows_stop_at_any_hit && scene.intersect(ray, its, current);
-        // Occluded: nothing to estimate (and no tracking to pay for) on the way there. A
-        // mask passes the ray with a probability that the path through it would have had
-        // to draw: both the transmittance and the unidirectional pdf take it.
-        if (hit) {
-            const int bsdf = scene.shapes[its.shape].bsdf;
-            const BSDF &b = scene.bsdfs[size_t(bsdf)];
-            const Real pass = is_null(b) || scene.shapes[its.shape].hides_from(RayKind::Shadow) ? 1
-                              : is_layered(b) ? surface_pass(scene, bsdf, scene.geometry.uv(its))
-                                              : 0;
-            if (pass == 0) return Spectrum(0.0);
-            if (pass < 1) T_ray *= pass, r_u *= pass;
-        }
-        const Real t_end = hit ? its.t : ray.t_max;
-        if (current >= 0) {
-            const Medium &m = scene.media[current];
-            if (is_homogeneous(m)) {
-                const auto &h = std::get<HomogeneousMedium>(m);
-                const Spectrum T = exp(-(h.sigma_a + h.sigma_s) * (t_end - ray.t_min));
-                T_ray *= T;
-                // Phase sampling would have to fly through without colliding, unless the
-                // medium only absorbs, where both strategies apply T in closed form.
-                if (!is_black(h.sigma_s)) r_u *= T;
-            } else if (deterministic_through_air(scene.lights[light], m)) {
-                // Toward the sun through the air, T from a table (or by quadrature): at
-                // sunrise the shadow ray crosses an optical depth of tens, where ratio
-                // tracking's estimate is mostly noise. The error is the table's: T within
-                // 6e-4 of an exact integral (tests/native/test_atmosphere.py).
-                // For the MIS weights, the phase strategy's chance to fly through: T per
-                // channel under delta tracking, the channel average under the guided free
-                // flight, which decides for all channels at once (see guided_flight).
-                const Spectrum T = exp(-sun_optical_depth(m, ray, t_end));
-                T_ray *= T;
-                r_u *= guided_air(m) ? Spectrum(average(T)) : T;
-            } else {
-                // Ratio tracking. Toward a delta light, which no other strategy finds (no
-                // MIS, so r_u is not needed), residual ratio tracking: the minorants'
-                // share of the optical depth is exact, only the rest is tracked.
-                Spectrum tau_min(0.0), tau_seen(0.0), T_min(1.0);
-                const Spectrum T_maj = sample_T_maj(
-                    m, ray, t_end, channel, sampler,
-                    [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj,
-                        const Spectrum &T_seg) {
-                        const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
-                        const Real pdf = T_seg[channel] * sigma_maj[channel];
-                        T_ray *= T_seg * sigma_n / pdf;
-                        r_l *= T_seg * sigma_maj / pdf;
-                        r_u *= T_seg * sigma_n / pdf;
-                        // Russian roulette on a transmittance estimate that got small (the
-                        // minorants' part so far included: one exp per piece entered).
-                        if (!(tau_min == tau_seen)) T_min = exp(-tau_min), tau_seen = tau_min;
-                        const Spectrum Tr = T_ray * T_min / average(r_l + r_u);
-                        if (max_component(Tr) < 0.05) {
-                            if (sampler.independent_1d() < 0.75)
-                                T_ray = Spectrum(0.0);
-                            else
-                                T_ray /= 0.25;
-                        }
-                        return !is_black(T_ray);
-                    },
-                    /*forced_probability=*/0, /*stratified=*/false, ls.delta ? &tau_min : nullptr);
-                const Real pdf = T_maj[channel];
-                if (!(pdf > 0)) return Spectrum(0.0);
-                T_ray *= T_maj / pdf * exp(-tau_min);
-                r_l *= T_maj / pdf;
-                r_u *= T_maj / pdf;
-            }
-            if (is_black(T_ray)) return Spectrum(0.0);
-        }
-        if (!hit) break;
-        const ShapeInfo &shape = scene.shapes[its.shape];
-        const int next = medium_after_crossing(shape, ray.d, its.n, current);
-        left_guided_air = next < 0 && current >= 0 && guided_air(scene.media[current]);
-        current = next;
-        remaining -= its.t;
-        ray = spawn_ray(its.p, its.n, ray.d, remaining);
-        // Russian roulette before tracing on, where the transmittance so far is small.
-        if (const Real T_max = max_component(T_ray); T_max < kShadowRouletteT) [[unlikely]] {
-            if (!(sampler.independent_1d() * kShadowRouletteT < T_max)) return Spectrum(0.0);
-            T_ray *= kShadowRouletteT / T_max;
-        }
-    }
+    Shadow shadow;
+    const Ray ray = spawn_ray(p, n, ls.d, std::isfinite(ls.dist) ? ls.dist * (1 - 1e-7) : kInfinity);
+    const int start = surface ? medium_after_crossing(*surface, ls.d, n, medium) : medium;
+    if (!unshadowed && !trace_shadow(scene, ray, start, scene.lights[light], ls.delta, channel, sampler, shadow))
+        return Spectrum(0.0);
 
     // Rays that leave guided air for nothing but suns never get there by phase sampling.
-    if (left_guided_air && leads_to_suns_only(scene, scene.lights[light])) r_u = Spectrum(0.0);
+    if (shadow.left_guided_air && leads_to_suns_only(scene, scene.lights[light])) shadow.r_u = Spectrum(0.0);
     // Phase sampling would start from free flight's vertex.
-    r_l *= r_p * (select * ls.pdf);
-    const Real r_scatter = ls.delta || !mis || unshadowed || is_black(r_u)
+    const Spectrum r_l = shadow.r_l * (r_p * (select * ls.pdf));
+    const Real r_scatter = ls.delta || !mis || unshadowed || is_black(shadow.r_u)
                                ? 0.0
-                               : average(r_u * (toward_light ? free_flight_density(*vertex) : r_p) * pdf(ls.d));
-    return beta * f * T_ray * ls.L * mis_over_a(average(r_l), r_scatter);
+                               : average(shadow.r_u * (toward_light ? free_flight_density(*vertex) : r_p) * pdf(ls.d));
+    return beta * f * shadow.T * ls.L * mis_over_a(average(r_l), r_scatter);
 }
 
 }  // namespace
@@ -401,8 +409,33 @@ struct Path {
     Step fly_through_air(bool hit, const Intersection &its, Real t_end);
     enum class Flight { Crossed, Scattered, Ended };
     Flight guided_flight(const Medium &m, bool hit, const Intersection &its, Real t_end, bool clear);
+    struct AirModels {
+        const SkyMap *map = nullptr;
+        bool light_model = false;  // the segment's scattered light as a control variate
+        bool map_model = false;    // and the sky map's light past a collision
+        bool predicted = false;    // shadowed air: the models only predict a collision's share
+    };
+    AirModels air_models(const Medium &m, bool clear) const;
+    bool finds_nothing_beyond(bool hit, const Intersection &its) const;
+    Real air_collision_probability(const Spectrum &tau, bool hit, const Intersection &its) const;
+    Flight collide_in_air(const Medium &m, const AirSegment &seg, Real p_event, bool controlled, bool predicted);
     bool leaves_for_empty_space(bool hit, const Intersection &its) const;
     Step fly_through_medium(Real t_end);
+    // Delta tracking on one segment [ray.t_min, t_end]: what its steps share.
+    struct Tracking {
+        Real t_end;
+        bool segment_nee;       // homogeneous: NEE from distances drawn for the lights (segment_direct)
+        Spectrum r_start{0.0};  // r_u where the segment starts
+        Real forced = 0;        // a forced branch: the probability of a collision it stands for
+        bool nee_at_tentative = false;
+        ChoiceChain real_or_null;
+    };
+    enum class Collision { Null, Scattered, Ended };
+    bool enter_branch(const Medium &m, bool homogeneous, Real t_end, Real &forced);
+    void cross_without_scattering(const HomogeneousMedium &h, Real t_end);
+    Step delta_track(const Medium &m, Tracking &seg);
+    Collision tentative_collision(const Medium &m, Tracking &seg, const Vec3 &p, Real t, const MediumProperties &mp,
+                                  const Spectrum &sigma_maj, const Spectrum &T_seg);
     // At the segment's end.
     void add_infinite_lights(const Intersection &its);
     Step at_surface(const Intersection &its);
@@ -449,8 +482,8 @@ Spectrum Path::trace(const FirstHit *first) {
         if (!roulette_toward_sky(hit, its)) return L;
         const Real t_end = hit ? its.t : ray.t_max;
         if (medium >= 0) {
-            const Step step = feat.scatter && guided_air(scene.media[medium]) ? fly_through_air(hit, its, t_end)
-                                                                              : fly_through_medium(t_end);
+            const Step step =
+                guided_air(scene.media[medium]) ? fly_through_air(hit, its, t_end) : fly_through_medium(t_end);
             if (step == Step::Ended) return L;
             if (step == Step::NewRay) continue;
         }
@@ -464,8 +497,7 @@ Spectrum Path::trace(const FirstHit *first) {
 }
 
 bool Path::splits_segment() const {
-    if (!may_split || split_at == segment || segment >= kMaxCameraSplits || depth > 0 || ray_kind != RayKind::Camera ||
-        !feat.scatter)
+    if (!may_split || split_at == segment || segment >= kMaxCameraSplits || depth > 0 || ray_kind != RayKind::Camera)
         return false;
     const Medium &m = scene.media[medium];
     if (segment != 0 && !std::holds_alternative<GridMedium>(m) && !guided_air(m)) return false;
@@ -797,41 +829,22 @@ bool Path::leaves_for_empty_space(bool hit, const Intersection &its) const {
 // scatters, weighted with the table's transmittance. `hit`: the segment ends at the
 // surface `its` (else at a cut, or nowhere); `clear`: the air's light models hold along it.
 Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &its, Real t_end, bool clear) {
-    // The light scattered along the segment as a control variate (AirSegment::light_model):
-    // the model's integral is added, and at a collision the model's value there is taken
-    // off what the path then gathers (NEE, and past it the light the sky map models).
-    const bool light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
-    const SkyMap *map = sky_map_of(m);
-    const bool map_model =
-        light_model && map && map->models_light && (feat.max_depth < 0 || depth + 2 < feat.max_depth);
+    const AirModels models = air_models(m, clear);
     // The camera's pass-through branch only looks for what lies beyond: if that is empty
     // space and no sun's disc, nothing (sky pixels, most of a sky's image).
-    if (branch == Branch::PassThrough && leaves_for_empty_space(hit, its)) {
-        bool sees_a_sun = false;
-        for (int index : scene.infinite_lights) sees_a_sun |= !is_black(infinite_radiance(scene.lights[index], ray.d));
-        if (!sees_a_sun) return Flight::Ended;
-    }
+    if (branch == Branch::PassThrough && finds_nothing_beyond(hit, its)) return Flight::Ended;
     // The sun's lookups for the guide serve only a collision and the control variate: the
     // camera's pass-through branch needs T alone, and without the control variate they wait
     // until free flight has chosen to collide (most short segments between shapes do not).
     const AtmosphereMedium &air = *guided_air(m);
-    const bool guide_now = branch == Branch::Collide || (branch == Branch::All && light_model);
-    // Where shapes may shadow the air, the models still bound what a collision could gather
-    // (they ignore those shadows): see below.
-    const bool predicted =
-        !clear && scene.sun_alone_under_mis && feat.nee && map && map->models_light && !last_vertex();
+    const bool guide_now = branch == Branch::Collide || (branch == Branch::All && models.light_model);
     AirSegment seg;
-    if (guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), map_model || predicted ? map : nullptr);
+    if (guide_now)
+        seg = air_segment(air, ray, t_end, scene.sun_guide(),
+                          models.map_model || models.predicted ? models.map : nullptr);
     const Spectrum tau = guide_now ? seg.optical_depth(t_end) : air_optical_depth(air, ray, t_end), T = exp(-tau);
-    Real p_collide = branch == Branch::Collide ? 1 : 0;
-    if (branch == Branch::All) {
-        for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;  // 1 - T by expm1: exact for thin air too
-        // Leaving the air for empty space under suns alone, a path could only find a
-        // sun's disc, which NEE from the last scattering event takes (see sample_direct):
-        // always collide. Not after the camera or a specular bounce: no NEE saw the disc.
-        if (p_collide > 0 && !specular_bounce && leaves_for_empty_space(hit, its)) p_collide = 1;
-    }
-    const bool controlled = light_model && p_collide > 0 && seg.models_light;
+    const Real p_collide = air_collision_probability(tau, hit, its);
+    const bool controlled = models.light_model && p_collide > 0 && seg.models_light;
     if (controlled) L += beta * seg.light_integral() / average(r_u);
     bool collide = branch == Branch::Collide;
     Real p_event = 1;
@@ -841,21 +854,8 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
     }
     branch = Branch::All;
     if (collide) {
-        Real t, pdf;
-        if (!guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), predicted ? map : nullptr);
-        if (last_vertex()) return Flight::Ended;
-        // A collision in shadowed air pays for NEE through the shapes before roulette_by_share
-        // can end its walk: the camera's forced collisions in the few hundred metres of air
-        // around it, which gather a few per cent of what the sky beyond or the terrain shows.
-        // Roulette first, by the share the models predict for the collision.
-        if (predicted && seg.models_light &&
-            !survive(share_survival(beta * seg.light_integral() / (p_event * average(r_u)))))
-            return Flight::Ended;
-        if (!seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
-        const Vec3 p = ray.at(t);
-        if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));
-        beta *= seg.transmittance(t) * medium_properties(m, p).sigma_s / (pdf * p_event);
-        return !is_black(beta) && scatter_in_medium(p, m) ? Flight::Scattered : Flight::Ended;
+        if (!guide_now) seg = air_segment(air, ray, t_end, scene.sun_guide(), models.predicted ? models.map : nullptr);
+        return collide_in_air(m, seg, p_event, controlled, models.predicted);
     }
     if (!(p_event > 0)) return Flight::Ended;
     beta *= T / p_event;
@@ -863,143 +863,188 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
     return Flight::Crossed;
 }
 
+// Which of the air's light models serve a guided flight in m (`clear`: they hold along its
+// segment). The light scattered along the segment is a control variate
+// (AirSegment::light_model): the model's integral is added, and at a collision the model's
+// value there is taken off what the path then gathers (NEE, and past it the light the sky
+// map models). Where shapes may shadow the air, the models still bound what a collision
+// could gather (they ignore those shadows): collide_in_air's roulette.
+Path::AirModels Path::air_models(const Medium &m, bool clear) const {
+    AirModels models;
+    models.map = sky_map_of(m);
+    const bool map_models = models.map && models.map->models_light;
+    models.light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
+    models.map_model = models.light_model && map_models && (feat.max_depth < 0 || depth + 2 < feat.max_depth);
+    models.predicted = !clear && scene.sun_alone_under_mis && feat.nee && map_models && !last_vertex();
+    return models;
+}
+
+// Whether a ray that leaves for empty space there finds nothing, not even a sun's disc.
+bool Path::finds_nothing_beyond(bool hit, const Intersection &its) const {
+    if (!leaves_for_empty_space(hit, its)) return false;
+    for (int index : scene.infinite_lights)
+        if (!is_black(infinite_radiance(scene.lights[index], ray.d))) return false;
+    return true;
+}
+
+// The probability that a guided flight collides on a segment of optical depth tau, the same
+// in all channels (their average of 1 - T); 1 for a forced branch, 0 for a pass-through.
+Real Path::air_collision_probability(const Spectrum &tau, bool hit, const Intersection &its) const {
+    if (branch != Branch::All) return branch == Branch::Collide ? 1 : 0;
+    Real p_collide = 0;
+    for (int c = 0; c < 3; ++c) p_collide -= std::expm1(-tau[c]) / 3;  // 1 - T by expm1: exact for thin air too
+    // Leaving the air for empty space under suns alone, a path could only find a sun's
+    // disc, which NEE from the last scattering event takes (see sample_direct): always
+    // collide. Not after the camera or a specular bounce: no NEE saw the disc.
+    if (p_collide > 0 && !specular_bounce && leaves_for_empty_space(hit, its)) p_collide = 1;
+    return p_collide;
+}
+
+// The guided flight's collision, chosen with probability p_event: a distance drawn from
+// the segment's guide, weighted with its transmittance, then the scattering event there.
+Path::Flight Path::collide_in_air(const Medium &m, const AirSegment &seg, Real p_event, bool controlled,
+                                  bool predicted) {
+    if (last_vertex()) return Flight::Ended;
+    // A collision in shadowed air pays for NEE through the shapes before roulette_by_share
+    // can end its walk: the camera's forced collisions in the few hundred metres of air
+    // around it, which gather a few per cent of what the sky beyond or the terrain shows.
+    // Roulette first, by the share the models predict for the collision.
+    if (predicted && seg.models_light &&
+        !survive(share_survival(beta * seg.light_integral() / (p_event * average(r_u)))))
+        return Flight::Ended;
+    Real t, pdf;
+    if (!seg.sample(sampler.next_1d(), t, pdf)) return Flight::Ended;
+    const Vec3 p = ray.at(t);
+    if (controlled) L -= beta * seg.light_model(t) / (pdf * p_event * average(r_u));
+    beta *= seg.transmittance(t) * medium_properties(m, p).sigma_s / (pdf * p_event);
+    return !is_black(beta) && scatter_in_medium(p, m) ? Flight::Scattered : Flight::Ended;
+}
+
 // Through any other medium: delta tracking against its majorants (null scattering),
 // transmittance in closed form where a homogeneous medium does not scatter.
 Step Path::fly_through_medium(Real t_end) {
     const Medium &m = scene.media[medium];
     const auto *h = std::get_if<HomogeneousMedium>(&m);
-    const bool scatters = feat.scatter && !(h && is_black(h->sigma_s));
-    // The camera's first segment, when split (radiance() splits only scattering
-    // media): PassThrough crosses it with weight T_maj, Collide must collide in it.
-    Real forced = 0;
+    const bool scatters = !(h && is_black(h->sigma_s));
     const bool pass_through = branch == Branch::PassThrough;
-    const bool segment_nee = h && scatters && !pass_through && feat.nee && config.light_distances &&
-                             !scene.segment_lights.empty() && !last_vertex();
-    if (segment_nee) segment_direct(m, *h, t_end);
-    const Spectrum r_start = r_u;
-    if (branch != Branch::All) {
-        if (pass_through && !h) {
-            beta *= ratio_tracking(m, ray, t_end, channel, sampler, /*residual=*/true);
-            if (is_black(beta)) return Step::Ended;
-        } else {
-            const Spectrum tau = majorant_optical_depth(m, ray, t_end);
-            if (pass_through) {
-                const Spectrum T_maj = exp(-tau);
-                const Real pdf = T_maj[channel];
-                if (!(pdf > 0)) return Step::Ended;
-                beta *= T_maj;  // the branch always runs: weighted by the event's probability
-                r_u *= T_maj / pdf;
-                scale_r_l(Spectrum(1 / pdf));
-            } else {
-                forced = -std::expm1(-tau[channel]);
-                if (!(forced > 0)) return Step::Ended;
-                beta *= forced;
-            }
-        }
-        branch = Branch::All;
+    Tracking seg{t_end, h && scatters && !pass_through && feat.nee && config.light_distances &&
+                            !scene.segment_lights.empty() && !last_vertex()};
+    if (seg.segment_nee) segment_direct(m, *h, t_end);
+    seg.r_start = r_u;
+    if (branch != Branch::All && !enter_branch(m, h != nullptr, t_end, seg.forced)) return Step::Ended;
+    if (!scatters) {
+        cross_without_scattering(*h, t_end);
+        return Step::Reached;
     }
-    if (!scatters && h) {
-        // Nothing scatters: transmittance and emission are exact, no sampling:
-        // the emission integral of sigma_a Le T(t) over the segment.
-        const Spectrum sigma_t = h->sigma_a + h->sigma_s;
-        const Real d = t_end - ray.t_min;
-        if (!is_black(h->Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
-            Spectrum span;
-            for (int c = 0; c < 3; ++c) span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
-            L += beta * h->sigma_a * h->Le * span / average(r_u);
-        }
-        beta *= exp(-sigma_t * d);
-    } else if (!scatters) {
-        // Absorption tracer in a heterogeneous medium: ratio tracking, collecting
-        // the emission at every tentative collision.
-        const Spectrum T_maj = sample_T_maj(
-            m, ray, t_end, channel, sampler,
-            [&](const Vec3 &, Real, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
-                add_medium_emission(mp, sigma_maj, T_seg);
-                const Spectrum sigma_n = clamp_zero(sigma_maj - mp.sigma_a - mp.sigma_s);
-                const Real pdf = T_seg[channel] * sigma_maj[channel];
-                beta *= T_seg * sigma_n / pdf;
-                r_u *= T_seg * sigma_maj / pdf;
-                return !is_black(beta);
-            });
-        const Real pdf = T_maj[channel];
-        if (!(pdf > 0) || is_black(beta)) return Step::Ended;
-        beta *= T_maj / pdf;
-        r_u *= T_maj / pdf;
-    } else if (!pass_through) {
-        bool scattered = false, terminated = false;
-        // A grid's forced branch takes NEE at each of its tentative collisions whatever the
-        // real-or-null choice, weighted by sigma_s / sigma_maj instead of drawn with
-        // probability sigma_t / sigma_maj: the light a fog bank scatters toward the camera
-        // is then no longer a coin toss at each collision along the camera's ray. Phase
-        // sampling from there still follows the choice, which weights it by
-        // sigma_s / sigma_maj on average too, as MIS expects.
-        const bool nee_at_tentative = forced > 0 && feat.nee && std::holds_alternative<GridMedium>(m);
-        ChoiceChain real_or_null;
-        const Spectrum T_maj = sample_T_maj(
-            m, ray, t_end, channel, sampler,
-            [&](const Vec3 &p, Real t, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
-                const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
-                add_medium_emission(mp, sigma_maj, T_seg);
-                // (Grey coefficients only: the channels' densities then agree, and the MIS
-                // weights with them.)
-                const bool gathered = nee_at_tentative && !last_vertex() && is_grey(sigma_maj) && is_grey(sigma_t);
-                if (gathered) {
-                    const Real pdf = T_seg[channel] * sigma_maj[channel];
-                    L += direct_in_medium(p, medium_phase(m, p), beta * T_seg * mp.sigma_s / pdf,
-                                          r_u * T_seg * sigma_maj / pdf, nullptr);
-                }
-                // Real or null collision, in proportion to sigma_t : sigma_n in the
-                // sampling channel. Absorption is not sampled: it weights beta. All the
-                // segment's choices come from one uniform (ChoiceChain): the segment is
-                // crossed where that exceeds 1 - (the tentative collisions' ratio-tracking
-                // estimate of T), a threshold stratified over the pixel's samples like any
-                // dimension, where a number per choice would not be.
-                if (real_or_null.choose(sigma_t[channel] / sigma_maj[channel], sampler)) {
-                    if (last_vertex()) {
-                        terminated = true;
-                        return false;
-                    }
-                    const Real pdf = T_seg[channel] * sigma_t[channel];
-                    beta *= T_seg * mp.sigma_s / pdf;
-                    r_u *= T_seg * sigma_t / pdf;
-                    // In a homogeneous segment T_seg runs from its start.
-                    std::optional<SegmentVertex> vertex;
-                    if (segment_nee) vertex = SegmentVertex{ray, t_end, sigma_t, r_start, t, pdf, -1};
-                    if (is_black(beta) || !scatter_in_medium(p, m, vertex ? &*vertex : nullptr, gathered)) {
-                        terminated = true;
-                        return false;
-                    }
-                    scattered = true;
-                    return false;
-                }
-                if (++null_collisions > config.max_null_collisions) {
-                    terminated = true;
-                    return false;
-                }
-                const Spectrum sigma_n = clamp_zero(sigma_maj - sigma_t);
-                const Real pdf = T_seg[channel] * sigma_n[channel];
-                if (!(pdf > 0)) {
-                    terminated = true;
-                    return false;
-                }
-                beta *= T_seg * sigma_n / pdf;
-                r_u *= T_seg * sigma_n / pdf;
-                scale_r_l(T_seg * sigma_maj / pdf);
-                return !is_black(beta);
-            },
-            forced, true, nullptr, forced > 0 ? (stratum + sampler.next_1d()) / strata : -1);
-        if (terminated || (forced > 0 && !scattered)) return Step::Ended;  // (see kCollideBranches)
-        if (scattered) return Step::NewRay;
-        // No collision before t_end. Homogeneous media are crossed by shadow rays in
-        // closed form, so the light strategy's density does not include T there.
-        const Real pdf = T_maj[channel];
-        if (!(pdf > 0)) return Step::Ended;
-        beta *= T_maj / pdf;
-        r_u *= T_maj / pdf;
-        scale_r_l(is_homogeneous(m) ? Spectrum(1 / pdf) : T_maj / pdf);
+    return pass_through ? Step::Reached : delta_track(m, seg);
+}
+
+// The camera's split segment (see Branch): PassThrough crosses it with weight T_maj (by
+// residual ratio tracking in a grid), Collide must collide in it (`forced`: the
+// probability it stands for, with which it weights the path). False: nothing left.
+bool Path::enter_branch(const Medium &m, bool homogeneous, Real t_end, Real &forced) {
+    const bool pass_through = branch == Branch::PassThrough;
+    branch = Branch::All;
+    if (pass_through && !homogeneous) {
+        beta *= ratio_tracking(m, ray, t_end, channel, sampler, /*residual=*/true);
+        return !is_black(beta);
     }
+    const Spectrum tau = majorant_optical_depth(m, ray, t_end);
+    if (!pass_through) {
+        forced = -std::expm1(-tau[channel]);
+        beta *= forced;
+        return forced > 0;
+    }
+    const Spectrum T_maj = exp(-tau);
+    const Real pdf = T_maj[channel];
+    if (!(pdf > 0)) return false;
+    beta *= T_maj;  // the branch always runs: weighted by the event's probability
+    r_u *= T_maj / pdf;
+    scale_r_l(Spectrum(1 / pdf));
+    return true;
+}
+
+// Nothing scatters: transmittance and emission are exact, no sampling: the emission
+// integral of sigma_a Le T(t) over the segment.
+void Path::cross_without_scattering(const HomogeneousMedium &h, Real t_end) {
+    const Spectrum sigma_t = h.sigma_a + h.sigma_s;
+    const Real d = t_end - ray.t_min;
+    if (!is_black(h.Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
+        Spectrum span;
+        for (int c = 0; c < 3; ++c) span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
+        L += beta * h.sigma_a * h.Le * span / average(r_u);
+    }
+    beta *= exp(-sigma_t * d);
+}
+
+// Delta tracking over [ray.t_min, seg.t_end] until a real collision scatters the path.
+// A grid's forced branch takes NEE at each of its tentative collisions whatever the
+// real-or-null choice, weighted by sigma_s / sigma_maj instead of drawn with probability
+// sigma_t / sigma_maj: the light a fog bank scatters toward the camera is then no longer a
+// coin toss at each collision along the camera's ray. Phase sampling from there still
+// follows the choice, which weights it by sigma_s / sigma_maj on average too, as MIS
+// expects.
+Step Path::delta_track(const Medium &m, Tracking &seg) {
+    seg.nee_at_tentative = seg.forced > 0 && feat.nee && std::holds_alternative<GridMedium>(m);
+    Collision outcome = Collision::Null;
+    const Spectrum T_maj = sample_T_maj(
+        m, ray, seg.t_end, channel, sampler,
+        [&](const Vec3 &p, Real t, const MediumProperties &mp, const Spectrum &sigma_maj, const Spectrum &T_seg) {
+            outcome = tentative_collision(m, seg, p, t, mp, sigma_maj, T_seg);
+            return outcome == Collision::Null && !is_black(beta);
+        },
+        seg.forced, true, nullptr, seg.forced > 0 ? (stratum + sampler.next_1d()) / strata : -1);
+    if (outcome == Collision::Ended || (seg.forced > 0 && outcome != Collision::Scattered))
+        return Step::Ended;  // (see kCollideBranches)
+    if (outcome == Collision::Scattered) return Step::NewRay;
+    // No collision before t_end. Homogeneous media are crossed by shadow rays in closed
+    // form, so the light strategy's density does not include T there.
+    const Real pdf = T_maj[channel];
+    if (!(pdf > 0)) return Step::Ended;
+    beta *= T_maj / pdf;
+    r_u *= T_maj / pdf;
+    scale_r_l(is_homogeneous(m) ? Spectrum(1 / pdf) : T_maj / pdf);
     return Step::Reached;
+}
+
+// A tentative collision of delta tracking at p: its emission, NEE where the segment gathers
+// at every one, then a real or a null collision, in proportion to sigma_t : sigma_n in the
+// sampling channel. Absorption is not sampled: it weights beta. All the segment's choices
+// come from one uniform (ChoiceChain): the segment is crossed where that exceeds 1 - (the
+// tentative collisions' ratio-tracking estimate of T), a threshold stratified over the
+// pixel's samples like any dimension, where a number per choice would not be.
+Path::Collision Path::tentative_collision(const Medium &m, Tracking &seg, const Vec3 &p, Real t,
+                                          const MediumProperties &mp, const Spectrum &sigma_maj,
+                                          const Spectrum &T_seg) {
+    const Spectrum sigma_t = mp.sigma_a + mp.sigma_s;
+    add_medium_emission(mp, sigma_maj, T_seg);
+    // (Grey coefficients only: the channels' densities then agree, and the MIS weights
+    // with them.)
+    const bool gathered = seg.nee_at_tentative && !last_vertex() && is_grey(sigma_maj) && is_grey(sigma_t);
+    if (gathered) {
+        const Real pdf = T_seg[channel] * sigma_maj[channel];
+        L += direct_in_medium(p, medium_phase(m, p), beta * T_seg * mp.sigma_s / pdf, r_u * T_seg * sigma_maj / pdf,
+                              nullptr);
+    }
+    if (seg.real_or_null.choose(sigma_t[channel] / sigma_maj[channel], sampler)) {
+        if (last_vertex()) return Collision::Ended;
+        const Real pdf = T_seg[channel] * sigma_t[channel];
+        beta *= T_seg * mp.sigma_s / pdf;
+        r_u *= T_seg * sigma_t / pdf;
+        // In a homogeneous segment T_seg runs from its start.
+        std::optional<SegmentVertex> vertex;
+        if (seg.segment_nee) vertex = SegmentVertex{ray, seg.t_end, sigma_t, seg.r_start, t, pdf, -1};
+        const bool goes_on = !is_black(beta) && scatter_in_medium(p, m, vertex ? &*vertex : nullptr, gathered);
+        return goes_on ? Collision::Scattered : Collision::Ended;
+    }
+    if (++null_collisions > config.max_null_collisions) return Collision::Ended;
+    const Spectrum sigma_n = clamp_zero(sigma_maj - sigma_t);
+    const Real pdf = T_seg[channel] * sigma_n[channel];
+    if (!(pdf > 0)) return Collision::Ended;
+    beta *= T_seg * sigma_n / pdf;
+    r_u *= T_seg * sigma_n / pdf;
+    scale_r_l(T_seg * sigma_maj / pdf);
+    return Collision::Null;
 }
 
 // The ray escaped: the lights at infinity it finds.
@@ -1042,7 +1087,6 @@ Step Path::at_surface(const Intersection &its) {
         r_l /= surface.pass;
         return pass_through();
     }
-    if (!feat.scatter) return Step::Ended;
     if (feat.max_depth >= 0 && depth + 1 >= feat.max_depth) return Step::Ended;
     ++depth;
 
@@ -1082,6 +1126,7 @@ Step Path::at_surface(const Intersection &its) {
 }  // namespace
 
 Spectrum radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config) {
+    if (config.tracer == Tracer::Absorption) return absorption_radiance(scene, ray, medium, sampler);
     return Path(scene, ray, medium, sampler, config).trace();
 }
 
