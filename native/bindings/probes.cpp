@@ -219,17 +219,17 @@ PYBIND11_MODULE(_probes, m) {
         py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("t_max"));
     m.def("shadows_stop_at_any_hit", [](Scene &s) {
         s.build();
-        return s.shadows_stop_at_any_hit;
+        return s.context.shadows_stop_at_any_hit;
     });
     // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
     // Per shape: whether it is a null medium boundary that a surface may lie on.
     m.def("boundary_with_contact", [](Scene &s) {
         s.build();
-        return std::vector<bool>(s.boundary_with_contact.begin(), s.boundary_with_contact.end());
+        return std::vector<bool>(s.context.boundary_with_contact.begin(), s.context.boundary_with_contact.end());
     });
     m.def("medium_containers", [](Scene &s) {
         if (!s.built) s.build();
-        return s.medium_container;
+        return s.context.medium_container;
     });
     // The shape that holds all others (Geometry::enclosure), or -1.
     m.def("enclosure", [](Scene &s) {
@@ -274,7 +274,7 @@ PYBIND11_MODULE(_probes, m) {
     m.def("local_sun_shadow", [](Scene &s, Array3 o, Array3 d, double t0, double t1) {
         if (!s.built) s.build();
         const auto [a, b] = s.local_sun_shadow(Ray{vec(o), normalize(vec(d))}, t0, t1);
-        const Bounds &box = s.local_bounds;
+        const Bounds &box = s.context.local_bounds;
         return py::make_tuple(a, b, py::make_tuple(box.lo.x, box.lo.y, box.lo.z),
                               py::make_tuple(box.hi.x, box.hi.y, box.hi.z));
     });
@@ -284,9 +284,10 @@ PYBIND11_MODULE(_probes, m) {
           [](Scene &s, int medium, Array3 o, Array3 d, double t_max, const DoubleArray &ts, bool with_map) {
               if (!s.built) s.build();
               const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
-              if (with_map && !air.sky_map) throw std::invalid_argument("the medium has no sky map");
+              const SkyMap *map = s.sky_map(medium);
+              if (with_map && !map) throw std::invalid_argument("the medium has no sky map");
               const AirSegment seg = air_segment(air, Ray{vec(o), normalize(vec(d)), 0, t_max}, t_max, s.sun_guide(),
-                                                 with_map ? air.sky_map.get() : nullptr);
+                                                 with_map ? map : nullptr);
               py::array_t<double> light({size_t(ts.shape(0)), size_t(3)});
               auto r = light.mutable_unchecked<2>();
               for (py::ssize_t i = 0; i < ts.shape(0); ++i) {
@@ -302,9 +303,9 @@ PYBIND11_MODULE(_probes, m) {
     // and whether it models the light well enough for control variates.
     m.def("sky_map", [](Scene &s, int medium, Array3 p, Array3 d_in, const DoubleArray &dirs, const DoubleArray &us) {
         if (!s.built) s.build();
-        const auto &air = std::get<AtmosphereMedium>(s.media.at(size_t(medium)));
-        if (!air.sky_map) throw std::invalid_argument("the medium has no sky map");
-        const SkyMap &map = *air.sky_map;
+        std::get<AtmosphereMedium>(s.media.at(size_t(medium)));  // (throws for another medium)
+        if (!s.sky_map(medium)) throw std::invalid_argument("the medium has no sky map");
+        const SkyMap &map = *s.sky_map(medium);
         const SkyMap::Point at = map.at(vec(p));
         const size_t n = size_t(dirs.shape(0)), k = size_t(us.shape(0));
         py::array_t<double> pdf(n), radiance({n, size_t(3)}), samples({k, size_t(3)}), sample_pdf(k);

@@ -120,11 +120,11 @@ struct AtmosphereMedium {
     // Three floats per entry (the table's error, 6e-4, dwarfs float's 6e-8; half the memory
     // of doubles keeps more of it in cache).
     std::vector<float> tau_to_top;
-    // Where the scene's sun's scattered light comes from, for directions after scattering
-    // here and the control variates (guided free flight only); set by Scene::build unless
-    // use_sky_map is off (the scene language's sky_map, for the accuracy study).
+    // Whether the render context maps where the scene's sun's scattered light comes from,
+    // for directions after scattering here and the control variates (guided free flight
+    // only; RenderContext::sky_maps); off: the scene language's sky_map, for the accuracy
+    // study.
     bool use_sky_map = true;
-    std::shared_ptr<const SkyMap> sky_map;
 
     Real altitude(const Vec3 &p) const { return length(p - center) - planet_radius; }
     // Optical depth from p along d to the top of the atmosphere, from the table; false

@@ -1,7 +1,9 @@
-// The in-memory scene: plain arrays of shapes, BSDFs, media and lights, indexed by int
-// (-1 = none). Loaders and exporters fill it through the builder functions.
+// The in-memory scene: its description (plain arrays of shapes, BSDFs, media and lights,
+// indexed by int, -1 = none), which loaders and exporters fill through the builder
+// functions, and the render context derived from it.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,6 +41,57 @@ struct Camera {
     bool gaussian_filter = false;  // Mitsuba's default: stddev 0.5 px, radius 2 px
 };
 
+// What a render reads besides the scene's description, all of it derived from the
+// description by Scene::build(): the lights each next-event strategy chooses among, the sun
+// that guides flights through the air and the sky maps it lights, and what makes shape
+// queries cheap. A frame's update (a light or the camera moved) rebuilds this one object;
+// the description stays as loaders and exporters wrote it, and the BVH as it was built.
+struct RenderContext {
+    // Lights by role (indices into Scene::lights).
+    std::vector<int> infinite_lights;  // environments and suns: found by rays that escape
+    // All but environment lights: NEE also from distances drawn for them on homogeneous
+    // media segments (see SegmentVertex in the integrator).
+    std::vector<int> segment_lights;
+    // The lights NEE chooses from under MIS: all but constant environments (a direction
+    // drawn in proportion to the scattering function is at least as good a sample of a
+    // uniform sky as NEE's uniform one, and the path traces it anyway).
+    std::vector<int> mis_nee_lights;
+    // The lights NEE chooses from at a free-flight collision in a homogeneous medium, where
+    // every segment estimates the segment lights by a distance of its own: the environments
+    // among NEE's lights, [0] without MIS, [1] under MIS.
+    std::vector<int> collision_nee_lights[2];
+    size_t point_and_directional = 0;
+    bool lights_hide_lobes = false;  // a light hides from Diffuse, Glossy or Transmission rays
+    bool has_environment = false;    // an EnvironmentLight among the lights
+    // The first sun or directional light, which guides free flights in the air.
+    std::optional<SunGuide> sun;
+    int sun_light = -1;  // its index
+    // Whether NEE under MIS chooses that sun alone: the light scattered in the air then has
+    // models whose integrals are known (AirSegment::light_model, the SkyMap), control
+    // variates for the guided free flight, wherever nothing but a planet shadows the sun.
+    bool sun_alone_under_mis = false;
+    // Per medium: the sky map of guided air that a sun lights, seen from the camera; else null.
+    std::vector<std::shared_ptr<const SkyMap>> sky_maps;
+    // The bounds of the shapes that may shadow the air besides the planets and the air's
+    // own boundaries (terrain, buildings, a fog bank's box); invalid if there are none.
+    Bounds local_bounds;
+    // Whether every shape stops shadow rays outright (none is null, masked or hidden from
+    // them): a shadow ray then only asks whether it hits anything.
+    bool shadows_stop_at_any_hit = false;
+    // Per shape: whether it is a flat null medium boundary (a mesh or box) that another flat
+    // surface may lie on (the only boundaries Scene::surface_on_boundary looks around: the
+    // look costs a short ray query per crossing).
+    std::vector<uint8_t> boundary_with_contact;
+    // The medium inside the enclosure's interface, where rays need not test for leaving it
+    // (-2: none).
+    int enclosed_medium = -2;
+    // Per medium: the shape that holds it, if that is the only shape whose interface names
+    // the medium (as its interior) and it is empty inside (Geometry::empty_inside); else -1.
+    std::vector<int> medium_container;
+};
+
+// The scene's description: plain arrays of shapes, BSDFs, media and lights, indexed by int
+// (-1 = none), the camera, and the context a render reads (built from them by build()).
 struct Scene {
     Geometry geometry;
     std::vector<ShapeInfo> shapes;
@@ -54,23 +107,14 @@ struct Scene {
     // surfaces through their other lobes only (NEE evaluates those; a bounce that finds it
     // counts the share of its BSDF value they hold).
     std::vector<uint8_t> light_hidden_from;
-    bool lights_hide_lobes = false;  // a light hides from Diffuse, Glossy or Transmission; set by build()
+    Camera camera;
+    RenderContext context;  // up to date where `built`
+    bool built = false;
+    bool geometry_built = false;  // the BVH is up to date with the shapes
+
     bool light_hides_from(int light, RayKind kind) const {
         return (light_hidden_from[size_t(light)] & uint8_t(kind)) != 0;
     }
-    std::vector<int> infinite_lights;  // indices into lights
-    // All but environment lights: NEE also from distances drawn for them on homogeneous
-    // media segments (see SegmentVertex in the integrator). Indices into lights.
-    std::vector<int> segment_lights;
-    // The lights NEE chooses from under MIS: all but constant environments (see add_light).
-    std::vector<int> mis_nee_lights;
-    // The lights NEE chooses from at a free-flight collision in a homogeneous medium, where
-    // every segment estimates the segment lights by a distance of its own: the environments
-    // among NEE's lights, [0] without MIS, [1] under MIS.
-    std::vector<int> collision_nee_lights[2];
-    Camera camera;
-    bool built = false;
-
     int add_bsdf(const BSDF &b);
     int add_medium(const Medium &m);
     int add_texture(Texture t);
@@ -87,13 +131,14 @@ struct Scene {
     // instance).
     int add_group() { return geometry.add_group(); }
     int add_instance(int group, const Transform &to_world, const Transform &to_local);
-    int add_light(const Light &l, uint8_t hidden_from = 0);  // counts point_and_directional
+    int add_light(const Light &l, uint8_t hidden_from = 0);
     // Replaces light i, and the rays it is hidden from, by another of its kind (an
-    // animation's sun, a lamp edited in the viewport); build() then redoes what depends on
-    // the lights, not the geometry.
+    // animation's sun, a lamp edited in the viewport); build() then redoes the context, not
+    // the geometry.
     void set_light(int i, const Light &l, uint8_t hidden_from);
+    // Builds what is out of date: the BVH, then the render context (whose sky maps keep
+    // the levels of the previous context's while the sun stays within their elevations).
     void build();
-    bool geometry_built = false;  // the BVH is up to date with the shapes
 
     // NEE's probability of choosing `light`: uniform among mis_nee_lights under MIS, else
     // among all lights.
@@ -102,19 +147,19 @@ struct Scene {
     Real collision_light_select_pdf(int light, bool mis) const;
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }
     // The same for a ray travelling in `medium` (-1: none), with no traversal from inside
-    // the medium's container (see medium_container) or outside the scene's enclosure
-    // (Geometry::enclosure), where there is nothing to hit.
+    // the medium's container (see RenderContext::medium_container) or outside the scene's
+    // enclosure (Geometry::enclosure), where there is nothing to hit.
     // A surface that lies on a medium's boundary is met before the boundary is crossed
     // (surface_on_boundary).
     bool intersect(const Ray &ray, Intersection &its, int medium) const {
         std::optional<bool> hit;
-        if (medium >= 0 && medium_container[size_t(medium)] >= 0)
-            hit = geometry.intersect_from_inside(medium_container[size_t(medium)], ray, its);
+        if (medium >= 0 && context.medium_container[size_t(medium)] >= 0)
+            hit = geometry.intersect_from_inside(context.medium_container[size_t(medium)], ray, its);
         if (!hit) {
-            if (medium != enclosed_medium && geometry.outside_enclosure(ray)) return false;
+            if (medium != context.enclosed_medium && geometry.outside_enclosure(ray)) return false;
             hit = geometry.intersect(ray, its);
         }
-        if (*hit && boundary_with_contact[size_t(its.shape)]) {
+        if (*hit && context.boundary_with_contact[size_t(its.shape)]) {
             Intersection on;
             if (surface_on_boundary(ray, its, on)) its = on;
         }
@@ -125,43 +170,18 @@ struct Scene {
     // another shape whose BSDF is not null. Such a surface is inside the medium: the ray
     // meets it before it crosses (out.t is on `ray`).
     bool surface_on_boundary(const Ray &ray, const Intersection &its, Intersection &out) const;
-    // Per shape, set by build(): whether it is a flat null medium boundary (a mesh or box)
-    // that another flat surface may lie on (the only boundaries surface_on_boundary looks
-    // around: the look costs a short ray query per crossing).
-    std::vector<uint8_t> boundary_with_contact;
-    // The medium inside the enclosure's interface, where rays need not test for leaving it
-    // (-2: none). Set by build().
-    int enclosed_medium = -2;
-    // Per medium: the shape that holds it, if that is the only shape whose interface names
-    // the medium (as its interior) and it is empty inside (Geometry::empty_inside); else -1.
-    // Set by build().
-    std::vector<int> medium_container;
     // Whether a ray can hit an emitter (area lights, lights at infinity); with only point
     // and directional lights, light arrives by next-event estimation alone.
-    bool has_hittable_emitters() const { return lights.size() > point_and_directional; }
-    size_t point_and_directional = 0;
-    bool has_environment = false;  // an EnvironmentLight among the lights; set by build()
-    // Whether every shape stops shadow rays outright (none is null, masked or hidden from
-    // them): a shadow ray then only asks whether it hits anything. Set by build().
-    bool shadows_stop_at_any_hit = false;
-    // The first sun or directional light, which guides free flights in the air; set by build().
-    std::optional<SunGuide> sun;
-    const SunGuide *sun_guide() const { return sun ? &*sun : nullptr; }
-    // Whether NEE under MIS chooses that sun alone: the light scattered in the air then has
-    // models whose integrals are known (AirSegment::light_model, the SkyMap), control
-    // variates for the guided free flight, wherever nothing but a planet shadows the sun.
-    // Set by build().
-    bool sun_alone_under_mis = false;
-    // The bounds of the shapes that may shadow the air besides the planets and the air's
-    // own boundaries (terrain, buildings, a fog bank's box); invalid if there are none.
-    // Set by build().
-    Bounds local_bounds;
+    bool has_hittable_emitters() const { return lights.size() > context.point_and_directional; }
+    const SunGuide *sun_guide() const { return context.sun ? &*context.sun : nullptr; }
+    // The sky map of guided air in `medium` (RenderContext::sky_maps), or null.
+    const SkyMap *sky_map(int medium) const { return context.sky_maps[size_t(medium)].get(); }
     // The distances [first, second] within [t0, t1] along `ray` whose points see the sun
     // through local_bounds (first > second: none): there local shapes may shadow the air.
     std::pair<Real, Real> local_sun_shadow(const Ray &ray, Real t0, Real t1) const;
     // Whether the air's light models hold at p: the sun alone, not shadowed by local shapes.
     bool air_models_hold(const Vec3 &p) const {
-        if (!sun_alone_under_mis || !local_bounds.valid()) return sun_alone_under_mis;
+        if (!context.sun_alone_under_mis || !context.local_bounds.valid()) return context.sun_alone_under_mis;
         const auto [a, b] = local_sun_shadow(Ray{p, Vec3(0, 0, 1)}, 0, 0);  // the point alone: t in [0, 0]
         return a > b;
     }

@@ -69,10 +69,6 @@ constexpr int kSurfaceMapSamples = 4;
 // Shifts the second coordinate of stratified samples (the golden ratio's fraction: a
 // rank-1 lattice with the first).
 constexpr Real kLatticeShift = 0.6180339887498949;
-const SkyMap *sky_map_of(const Medium &m) {
-    const AtmosphereMedium *air = guided_air(m);
-    return air ? air->sky_map.get() : nullptr;
-}
 // A scattering event in air with a sky map: the map's point, and the phase function's
 // lobes as drawn there: Rayleigh or Mie by their channel-averaged shares, so that the
 // direction's density is the same in every channel and the path's return carries the
@@ -107,7 +103,7 @@ bool deterministic_through_air(const Light &light, const Medium &m) {
 // infinity by suns alone. The guided free flight makes every ray that would leave the air
 // for empty space collide in it instead (a sun's disc seen from the air is NEE's alone).
 bool leads_to_suns_only(const Scene &scene, const Light &light) {
-    return std::holds_alternative<SunLight>(light) && !scene.has_environment;
+    return std::holds_alternative<SunLight>(light) && !scene.context.has_environment;
 }
 
 // A scattering vertex in a homogeneous medium segment, drawn by one of two distance
@@ -126,7 +122,7 @@ struct SegmentVertex {
     int light = -1;             // >= 0: drawn for this light, else by free flight
 };
 
-Real segment_light_select_pdf(const Scene &scene) { return 1.0 / Real(scene.segment_lights.size()); }
+Real segment_light_select_pdf(const Scene &scene) { return 1.0 / Real(scene.context.segment_lights.size()); }
 
 // Free flight's rescaled density at a vertex drawn for a light, on the scale of the r_u of
 // the light's distance strategy: where phase sampling from that vertex starts.
@@ -218,8 +214,8 @@ bool trace_shadow(const Scene &scene, Ray ray, int current, const Light &light, 
     for (int crossing = 0;; ++crossing) {
         if (crossing > kMaxNullCrossings) return false;
         Intersection its;
-        if (scene.shadows_stop_at_any_hit && scene.geometry.occluded(ray)) return false;
-        const bool hit = !scene.shadows_stop_at_any_hit && scene.intersect(ray, its, current);
+        if (scene.context.shadows_stop_at_any_hit && scene.geometry.occluded(ray)) return false;
+        const bool hit = !scene.context.shadows_stop_at_any_hit && scene.intersect(ray, its, current);
         if (hit) {
             const Real pass = shadow_pass(scene, its);
             if (pass == 0) return false;
@@ -263,7 +259,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     Real select = toward_light ? segment_light_select_pdf(scene) : 0;
     if (!toward_light) {
         const std::vector<int> *choice =
-            collision ? &scene.collision_nee_lights[mis] : (mis ? &scene.mis_nee_lights : nullptr);
+            collision ? &scene.context.collision_nee_lights[mis] : (mis ? &scene.context.mis_nee_lights : nullptr);
         const int n = int(choice ? choice->size() : scene.lights.size());
         if (n == 0) return Spectrum(0.0);
         const int i = std::min(int(sampler.next_1d() * n), n - 1);
@@ -557,7 +553,7 @@ void Path::add_emission(const Spectrum &emitted, int light, Real pdf_light_dir) 
     if (ray_kind == RayKind::Scatter && scene.light_hides_from(light, RayKind::Scatter)) return;
     if (feat.nee && !specular_bounce && scene.light_hides_from(light, RayKind::Shadow)) return;
     const Spectrum Le =
-        scene.lights_hide_lobes && (uint8_t(ray_kind) & kLobeRays) ? emitted * shown_share(light) : emitted;
+        scene.context.lights_hide_lobes && (uint8_t(ray_kind) & kLobeRays) ? emitted * shown_share(light) : emitted;
     if (specular_bounce) {
         L += beta * Le / average(r_u);
     } else if (feat.emission_after_scatter) {
@@ -594,8 +590,8 @@ Spectrum Path::direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const
 // The segment lights of the homogeneous segment [ray.t_min, t_end] that free flight is
 // about to sample: NEE from the distances drawn for one of them (SegmentVertex).
 void Path::segment_direct(const Medium &m, const HomogeneousMedium &h, Real t_end) {
-    const int n = int(scene.segment_lights.size());
-    const int light = scene.segment_lights[std::min(int(sampler.next_1d() * n), n - 1)];
+    const int n = int(scene.context.segment_lights.size());
+    const int light = scene.context.segment_lights[std::min(int(sampler.next_1d() * n), n - 1)];
     const Spectrum sigma_t = h.sigma_a + h.sigma_s;
     if (!(t_end > ray.t_min)) return;
     const LightDistances distances(scene.lights[light], ray, t_end, sigma_t);
@@ -617,11 +613,11 @@ void Path::segment_direct(const Medium &m, const HomogeneousMedium &h, Real t_en
 bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex *vertex, bool gathered) {
     ++depth;
     const PhaseFunction phase = medium_phase(m, p);
-    const SkyMap *map = sky_map_of(m);
+    const SkyMap *map = scene.sky_map(medium);
     const bool models = map && map->models_light && feat.nee && scene.air_models_hold(p);
     const std::optional<SkyPoint> sky = map ? std::optional<SkyPoint>(SkyPoint(map, p, phase, models)) : std::nullopt;
     if (feat.nee) {
-        if (!gathered && (!vertex || !scene.collision_nee_lights[feat.mis].empty()))
+        if (!gathered && (!vertex || !scene.context.collision_nee_lights[feat.mis].empty()))
             L += direct_in_medium(p, phase, beta, r_u, vertex, sky ? &*sky : nullptr);
         // Nothing left that the path could find?
         if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return false;
@@ -718,8 +714,8 @@ bool Path::roulette_after_sky_model(const Spectrum &arriving, Real survival) {
 // bounce's). Before the flight through the air, where the cost is.
 bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
     const bool bounced = (uint8_t(ray_kind) & kLobeRays) || (ray_kind == RayKind::Scatter && !scattered_in_air);
-    if (medium < 0 || specular_bounce || !bounced || !scene.sun_alone_under_mis) return true;
-    const SkyMap *map = sky_map_of(scene.media[medium]);
+    if (medium < 0 || specular_bounce || !bounced || !scene.context.sun_alone_under_mis) return true;
+    const SkyMap *map = scene.sky_map(medium);
     if (!map || !map->models_light || !feat.nee || (feat.max_depth >= 0 && depth + 2 >= feat.max_depth) ||
         (hit && !leaves_for_empty_space(hit, its)))
         return true;
@@ -737,10 +733,10 @@ bool Path::roulette_toward_sky(bool hit, const Intersection &its) {
 // not the sky's brightness over the directions (the sun's aureole, the horizon's band).
 std::optional<SurfaceSky> Path::add_sky_model_integral(const ShapeInfo &shape, const Intersection &its,
                                                        const BSDF &bsdf, const Frame &frame, const Vec3 &wi) {
-    if (medium < 0 || !feat.nee || !scene.sun_alone_under_mis || is_delta(bsdf) ||
+    if (medium < 0 || !feat.nee || !scene.context.sun_alone_under_mis || is_delta(bsdf) ||
         (feat.max_depth >= 0 && depth + 2 >= feat.max_depth))
         return std::nullopt;
-    const SkyMap *map = sky_map_of(scene.media[medium]);
+    const SkyMap *map = scene.sky_map(medium);
     if (!map || !map->models_light) return std::nullopt;
     const SurfaceSky sky{map, map->at(its.p), &shape, its.n, medium};
     const Vec2 u = sampler.next_2d();
@@ -790,8 +786,8 @@ bool Path::survive(Real q) {
 // control variates on the clear pieces alone.
 Step Path::fly_through_air(bool hit, const Intersection &its, Real t_end) {
     Real t_piece = t_end;
-    bool clear = scene.sun_alone_under_mis;
-    if (clear && scene.local_bounds.valid()) {
+    bool clear = scene.context.sun_alone_under_mis;
+    if (clear && scene.context.local_bounds.valid()) {
         const Real eps = 1e-9 * (1 + std::abs(ray.t_min) + std::abs(t_end));
         const auto [a, b] = scene.local_sun_shadow(ray, ray.t_min, t_end);
         if (a <= b && b > ray.t_min + eps) {
@@ -816,7 +812,7 @@ Step Path::fly_through_air(bool hit, const Intersection &its, Real t_end) {
 // Whether the ray leaves the air for empty space at `its` (where, under suns alone, only
 // a sun's disc could be found).
 bool Path::leaves_for_empty_space(bool hit, const Intersection &its) const {
-    if (!hit || scene.has_environment || !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) ||
+    if (!hit || scene.context.has_environment || !is_null(scene.bsdfs[scene.shapes[its.shape].bsdf]) ||
         medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) >= 0)
         return false;
     Intersection beyond;
@@ -871,18 +867,18 @@ Path::Flight Path::guided_flight(const Medium &m, bool hit, const Intersection &
 // could gather (they ignore those shadows): collide_in_air's roulette.
 Path::AirModels Path::air_models(const Medium &m, bool clear) const {
     AirModels models;
-    models.map = sky_map_of(m);
+    models.map = scene.sky_map(medium);
     const bool map_models = models.map && models.map->models_light;
     models.light_model = branch != Branch::PassThrough && feat.nee && clear && !last_vertex();
     models.map_model = models.light_model && map_models && (feat.max_depth < 0 || depth + 2 < feat.max_depth);
-    models.predicted = !clear && scene.sun_alone_under_mis && feat.nee && map_models && !last_vertex();
+    models.predicted = !clear && scene.context.sun_alone_under_mis && feat.nee && map_models && !last_vertex();
     return models;
 }
 
 // Whether a ray that leaves for empty space there finds nothing, not even a sun's disc.
 bool Path::finds_nothing_beyond(bool hit, const Intersection &its) const {
     if (!leaves_for_empty_space(hit, its)) return false;
-    for (int index : scene.infinite_lights)
+    for (int index : scene.context.infinite_lights)
         if (!is_black(infinite_radiance(scene.lights[index], ray.d))) return false;
     return true;
 }
@@ -928,7 +924,7 @@ Step Path::fly_through_medium(Real t_end) {
     const bool scatters = !(h && is_black(h->sigma_s));
     const bool pass_through = branch == Branch::PassThrough;
     Tracking seg{t_end, h && scatters && !pass_through && feat.nee && config.light_distances &&
-                            !scene.segment_lights.empty() && !last_vertex()};
+                            !scene.context.segment_lights.empty() && !last_vertex()};
     if (seg.segment_nee) segment_direct(m, *h, t_end);
     seg.r_start = r_u;
     if (branch != Branch::All && !enter_branch(m, h != nullptr, t_end, seg.forced)) return Step::Ended;
@@ -1049,7 +1045,7 @@ Path::Collision Path::tentative_collision(const Medium &m, Tracking &seg, const 
 
 // The ray escaped: the lights at infinity it finds.
 void Path::add_infinite_lights(const Intersection &its) {
-    for (int index : scene.infinite_lights) {
+    for (int index : scene.context.infinite_lights) {
         const Light &light = scene.lights[index];
         add_emission(infinite_radiance(light, ray.d), index, light_pdf(light, scene.geometry, prev_p, ray.d, its));
     }
@@ -1108,7 +1104,7 @@ Step Path::at_surface(const Intersection &its) {
     beta *= bs.weight;
     specular_bounce = bs.delta;
     ray_kind = bs.wo.z * wi.z < 0 ? RayKind::Transmission : bs.diffuse ? RayKind::Diffuse : RayKind::Glossy;
-    if (scene.lights_hide_lobes && !bs.delta)
+    if (scene.context.lights_hide_lobes && !bs.delta)
         diffuse_share =
             safe_div(bsdf_eval(bsdf, wi, bs.wo, kLobeRays & ~uint8_t(RayKind::Diffuse)), bs.weight * bs.pdf);
     else

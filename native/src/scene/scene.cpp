@@ -41,6 +41,7 @@ void Scene::bind_texture(int bsdf, const TexturedParam &param) {
 int Scene::add_medium(const Medium &m) {
     media.push_back(m);
     prepare_medium(media.back());
+    built = false;
     return int(media.size()) - 1;
 }
 
@@ -56,18 +57,7 @@ int Scene::add_light(const Light &l, uint8_t hidden_from) {
     check_hidden_from(hidden_from);
     lights.push_back(l);
     light_hidden_from.push_back(hidden_from);
-    if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l)) ++point_and_directional;
-    if (is_infinite(l)) infinite_lights.push_back(int(lights.size()) - 1);
-    if (!std::holds_alternative<EnvironmentLight>(l)) segment_lights.push_back(int(lights.size()) - 1);
-    // Under MIS a constant environment is left to phase and BSDF sampling: a direction
-    // drawn in proportion to the scattering function is at least as good a sample of a
-    // uniform sky as NEE's uniform one, and the path traces it anyway, so NEE would pay a
-    // shadow ray for nothing.
-    if (!is_constant_environment(l)) mis_nee_lights.push_back(int(lights.size()) - 1);
-    if (std::holds_alternative<EnvironmentLight>(l)) {
-        collision_nee_lights[0].push_back(int(lights.size()) - 1);
-        if (!is_constant_environment(l)) collision_nee_lights[1].push_back(int(lights.size()) - 1);
-    }
+    built = false;
     return int(lights.size()) - 1;
 }
 
@@ -82,11 +72,11 @@ void Scene::set_light(int i, const Light &l, uint8_t hidden_from) {
 
 Real Scene::light_select_pdf(int light, bool mis) const {
     if (!mis) return lights.empty() ? 0.0 : 1.0 / Real(lights.size());
-    return is_constant_environment(lights[light]) ? 0.0 : 1.0 / Real(mis_nee_lights.size());
+    return is_constant_environment(lights[light]) ? 0.0 : 1.0 / Real(context.mis_nee_lights.size());
 }
 
 Real Scene::collision_light_select_pdf(int light, bool mis) const {
-    const std::vector<int> &choice = collision_nee_lights[mis];
+    const std::vector<int> &choice = context.collision_nee_lights[mis];
     return std::find(choice.begin(), choice.end(), light) != choice.end() ? 1.0 / Real(choice.size()) : 0.0;
 }
 
@@ -151,98 +141,130 @@ int Scene::add_instance(int group, const Transform &to_world, const Transform &t
     return geometry.add_instance(group, to_world, to_local);
 }
 
+namespace {
+
+// The lights by the roles the tracers give them (RenderContext).
+void sort_lights(const Scene &scene, RenderContext &c) {
+    for (int i = 0; i < int(scene.lights.size()); ++i) {
+        const Light &l = scene.lights[size_t(i)];
+        const bool environment = std::holds_alternative<EnvironmentLight>(l);
+        if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l))
+            ++c.point_and_directional;
+        if (is_infinite(l)) c.infinite_lights.push_back(i);
+        if (!environment) c.segment_lights.push_back(i);
+        if (!is_constant_environment(l)) c.mis_nee_lights.push_back(i);
+        if (environment) {
+            c.collision_nee_lights[0].push_back(i);
+            if (!is_constant_environment(l)) c.collision_nee_lights[1].push_back(i);
+        }
+        c.has_environment |= environment;
+        c.lights_hide_lobes |= (scene.light_hidden_from[size_t(i)] & kLobeRays) != 0;
+        if (c.sun) continue;
+        if (const auto *sun = std::get_if<SunLight>(&l))
+            c.sun = SunGuide{sun->to_sun, sun->radiance / uniform_cone_pdf(sun->cos_max)};
+        else if (const auto *d = std::get_if<DirectionalLight>(&l))
+            c.sun = SunGuide{-d->direction, d->irradiance};
+        if (c.sun) c.sun_light = i;
+    }
+    c.sun_alone_under_mis = c.mis_nee_lights.size() == 1 && c.mis_nee_lights[0] == c.sun_light;
+}
+
+// Per medium, the one shape that holds it, empty inside (RenderContext::medium_container).
+void find_medium_containers(const Scene &scene, RenderContext &c) {
+    const size_t n = scene.media.size();
+    c.medium_container.assign(n, -1);
+    std::vector<int> interfaces(n, 0);
+    for (int i = 0; i < int(scene.shapes.size()); ++i) {
+        const ShapeInfo &s = scene.shapes[size_t(i)];
+        if (!s.medium_interface) continue;
+        for (int m : {s.interior, s.exterior})
+            if (m >= 0 && m < int(n)) ++interfaces[size_t(m)];
+        if (s.interior >= 0 && s.interior < int(n) && scene.geometry.empty_inside(i))
+            c.medium_container[size_t(s.interior)] = i;
+    }
+    // A medium named by a second interface (or as both sides of one) is not held by one shape.
+    for (size_t m = 0; m < n; ++m)
+        if (interfaces[m] != 1) c.medium_container[m] = -1;
+}
+
+// The flat null boundaries that another flat surface may lie on. Only flat pieces can
+// share an area with a boundary: spheres touch others at points.
+void find_boundaries_with_contact(const Scene &scene, RenderContext &c) {
+    const Geometry &geometry = scene.geometry;
+    c.boundary_with_contact.assign(scene.shapes.size(), 0);
+    std::vector<int> boundaries;
+    std::vector<Bounds> surface_bounds;
+    for (int i = 0; i < int(scene.shapes.size()); ++i) {
+        if (geometry.shapes[size_t(i)].is_sphere()) continue;
+        const bool null = is_null(scene.bsdfs[size_t(scene.shapes[size_t(i)].bsdf)]);
+        if (null && scene.shapes[size_t(i)].medium_interface) boundaries.push_back(i);
+        if (!null) surface_bounds.push_back(geometry.shape_bounds(i));
+    }
+    if (boundaries.empty()) return;
+    const Bounds all = geometry.bounds();
+    const Real eps = 1e-9 * std::max(max_component(abs(all.lo)), max_component(abs(all.hi))) + 1e-12;
+    for (int i : boundaries)
+        for (const Bounds &b : surface_bounds)
+            c.boundary_with_contact[size_t(i)] |= geometry.may_touch_surface(i, b, eps);
+}
+
+// Whether a shape may shadow the air: not if it is a sphere that is an atmosphere's ground
+// (the tables know that shadow) or lies inside it, or that is a null boundary, all around
+// the same centre.
+bool shadows_air(const Scene &scene, int shape) {
+    const ShapeGeometry &g = scene.geometry.shapes[size_t(shape)];
+    if (!g.is_sphere()) return true;
+    const Sphere &s = scene.geometry.spheres[g.index];
+    for (const Medium &m : scene.media) {
+        const auto *air = std::get_if<AtmosphereMedium>(&m);
+        if (air && s.center == air->center &&
+            (s.radius <= air->planet_radius * (1 + 1e-12) || is_null(scene.bsdfs[scene.shapes[shape].bsdf])))
+            return false;
+    }
+    return true;
+}
+
+// Each guided air lit by the sun gets its sky map, its ground's albedo from the diffuse
+// sphere that is its ground; a map of the previous context is reused where it can be.
+void build_sky_maps(const Scene &scene, const RenderContext *previous, RenderContext &c) {
+    c.sky_maps.assign(scene.media.size(), nullptr);
+    for (size_t m = 0; m < scene.media.size(); ++m) {
+        const auto *air = std::get_if<AtmosphereMedium>(&scene.media[m]);
+        if (!air || !c.sun || !air->use_sky_map || air->free_flight != AtmosphereMedium::FreeFlight::Guided) continue;
+        Spectrum albedo(0.0);
+        for (int i = 0; i < int(scene.shapes.size()); ++i) {
+            const ShapeGeometry &g = scene.geometry.shapes[size_t(i)];
+            const auto *diffuse = std::get_if<DiffuseBSDF>(&scene.bsdfs[scene.shapes[size_t(i)].bsdf].model);
+            if (g.is_sphere() && diffuse && scene.geometry.spheres[g.index].center == air->center &&
+                scene.geometry.spheres[g.index].radius == air->planet_radius)
+                albedo = diffuse->reflectance;
+        }
+        const SkyMap *before = previous && m < previous->sky_maps.size() ? previous->sky_maps[m].get() : nullptr;
+        c.sky_maps[m] = build_sky_map(*air, *c.sun, albedo, scene.camera.to_world.point(Vec3(0.0)), before);
+    }
+}
+
+}  // namespace
+
 void Scene::build() {
     if (!geometry_built) geometry.build();
     geometry_built = true;
-    medium_container.assign(media.size(), -1);
-    std::vector<int> interfaces(media.size(), 0);
-    for (int i = 0; i < int(shapes.size()); ++i) {
-        const ShapeInfo &s = shapes[i];
-        if (!s.medium_interface) continue;
-        for (int m : {s.interior, s.exterior}) {
-            if (m >= 0 && m < int(media.size())) ++interfaces[size_t(m)];
-        }
-        if (s.interior >= 0 && s.interior < int(media.size()) && geometry.empty_inside(i))
-            medium_container[size_t(s.interior)] = i;
-    }
-    // A medium named by a second interface (or as both sides of one) is not held by one shape.
-    for (size_t m = 0; m < media.size(); ++m) {
-        if (interfaces[m] != 1) medium_container[m] = -1;
-    }
-    // Only flat pieces can share an area with a boundary: spheres touch others at points.
-    boundary_with_contact.assign(shapes.size(), 0);
-    std::vector<int> boundaries, surfaces;
-    for (int i = 0; i < int(shapes.size()); ++i) {
-        if (geometry.shapes[size_t(i)].is_sphere()) continue;
-        const bool null = is_null(bsdfs[size_t(shapes[i].bsdf)]);
-        if (null && shapes[i].medium_interface) boundaries.push_back(i);
-        if (!null) surfaces.push_back(i);
-    }
-    if (!boundaries.empty()) {
-        std::vector<Bounds> surface_bounds;
-        for (int j : surfaces) surface_bounds.push_back(geometry.shape_bounds(j));
-        const Bounds all = geometry.bounds();
-        const Real eps = 1e-9 * std::max(max_component(abs(all.lo)), max_component(abs(all.hi))) + 1e-12;
-        for (int i : boundaries)
-            for (const Bounds &b : surface_bounds)
-                boundary_with_contact[size_t(i)] |= geometry.may_touch_surface(i, b, eps);
-    }
-    lights_hide_lobes = std::any_of(light_hidden_from.begin(), light_hidden_from.end(),
-                                    [](uint8_t hidden) { return (hidden & kLobeRays) != 0; });
-    shadows_stop_at_any_hit = std::none_of(shapes.begin(), shapes.end(), [&](const ShapeInfo &s) {
+    for (Light &l : lights) prepare_light(l, geometry);
+    RenderContext c;
+    sort_lights(*this, c);
+    find_medium_containers(*this, c);
+    find_boundaries_with_contact(*this, c);
+    c.shadows_stop_at_any_hit = std::none_of(shapes.begin(), shapes.end(), [&](const ShapeInfo &s) {
         const BSDF &b = bsdfs[size_t(s.bsdf)];
         return is_null(b) || is_layered(b) || s.hides_from(RayKind::Shadow);
     });
     const int enclosure = geometry.enclosure();
-    enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
-    for (Light &l : lights) prepare_light(l, geometry);
-    sun.reset();
-    has_environment = false;
-    for (const Light &l : lights) has_environment |= std::holds_alternative<EnvironmentLight>(l);
-    int sun_light = -1;
-    for (int i = 0; i < int(lights.size()) && !sun; ++i) {
-        if (const auto *s = std::get_if<SunLight>(&lights[i]))
-            sun = SunGuide{s->to_sun, s->radiance / uniform_cone_pdf(s->cos_max)};
-        else if (const auto *d = std::get_if<DirectionalLight>(&lights[i]))
-            sun = SunGuide{-d->direction, d->irradiance};
-        if (sun) sun_light = i;
-    }
-    // A sphere shadows no air if it is an atmosphere's ground (the tables know that shadow)
-    // or lies inside it, or if it is a null boundary, all around the same centre.
-    auto shadows_no_air = [&](int shape) {
-        const ShapeGeometry &g = geometry.shapes[shape];
-        if (!g.is_sphere()) return false;
-        const Sphere &s = geometry.spheres[g.index];
-        for (const Medium &m : media) {
-            const auto *air = std::get_if<AtmosphereMedium>(&m);
-            if (air && s.center == air->center &&
-                (s.radius <= air->planet_radius * (1 + 1e-12) || is_null(bsdfs[shapes[shape].bsdf])))
-                return true;
-        }
-        return false;
-    };
-    // Each guided air gets the sun's sky map, its ground's albedo from the diffuse sphere
-    // that is its ground.
-    for (Medium &medium : media) {
-        auto *air = std::get_if<AtmosphereMedium>(&medium);
-        if (!air) continue;
-        const std::shared_ptr<const SkyMap> previous = std::move(air->sky_map);
-        if (!sun || !air->use_sky_map || air->free_flight != AtmosphereMedium::FreeFlight::Guided) continue;
-        Spectrum albedo(0.0);
-        for (int i = 0; i < int(shapes.size()); ++i) {
-            const ShapeGeometry &g = geometry.shapes[i];
-            const auto *diffuse = std::get_if<DiffuseBSDF>(&bsdfs[shapes[i].bsdf].model);
-            if (g.is_sphere() && diffuse && geometry.spheres[g.index].center == air->center &&
-                geometry.spheres[g.index].radius == air->planet_radius)
-                albedo = diffuse->reflectance;
-        }
-        air->sky_map = build_sky_map(*air, *sun, albedo, camera.to_world.point(Vec3(0.0)), previous.get());
-    }
-    sun_alone_under_mis = mis_nee_lights.size() == 1 && mis_nee_lights[0] == sun_light;
-    local_bounds = Bounds();
+    c.enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
+    build_sky_maps(*this, &context, c);
     for (int i = 0; i < int(shapes.size()); ++i)
-        if (!shadows_no_air(i)) local_bounds.extend(geometry.shape_bounds(i));
+        if (shadows_air(*this, i)) c.local_bounds.extend(geometry.shape_bounds(i));
     if (camera.medium >= int(media.size())) throw std::out_of_range("invalid camera medium");
+    context = std::move(c);
     built = true;
 }
 
@@ -254,8 +276,8 @@ void Scene::build() {
 // projection of a convex set.
 std::pair<Real, Real> Scene::local_sun_shadow(const Ray &ray, Real t0, Real t1) const {
     const std::pair<Real, Real> none{kInfinity, -kInfinity};
-    if (!sun || !local_bounds.valid()) return none;
-    const Vec3 s = sun->to_sun;
+    if (!context.sun || !context.local_bounds.valid()) return none;
+    const Vec3 s = context.sun->to_sun;
     struct Linear {
         Real a, b;  // a + b t
     };
@@ -272,7 +294,7 @@ std::pair<Real, Real> Scene::local_sun_shadow(const Ray &ray, Real t0, Real t1) 
             hi_t = -kInfinity;
     };
     for (int i = 0; i < 3; ++i) {
-        const Real o = ray.o[i], d = ray.d[i], lo = local_bounds.lo[i], hi = local_bounds.hi[i];
+        const Real o = ray.o[i], d = ray.d[i], lo = context.local_bounds.lo[i], hi = context.local_bounds.hi[i];
         if (s[i] == 0) {
             at_most_zero(lo - o, -d);  // lo <= o + t d
             at_most_zero(o - hi, d);   // o + t d <= hi
@@ -309,14 +331,14 @@ std::vector<std::pair<std::string, size_t>> Scene::memory() const {
             media_bytes += bytes(g->majorants.cells);
         } else if (const auto *air = std::get_if<AtmosphereMedium>(&m)) {
             media_bytes += bytes(air->tau_to_top);
-            if (air->sky_map)
-                for (const SkyMap::Level &level : *air->sky_map->levels) {
-                    media_bytes += bytes(level.radiance) + bytes(level.directions.rows) * 2;
-                    for (const Distribution1D &row : level.directions.rows)
-                        media_bytes += bytes(row.func) + bytes(row.cdf);
-                }
         }
     }
+    for (const auto &map : context.sky_maps)
+        if (map)
+            for (const SkyMap::Level &level : *map->levels) {
+                media_bytes += bytes(level.radiance) + bytes(level.directions.rows) * 2;
+                for (const Distribution1D &row : level.directions.rows) media_bytes += bytes(row.func) + bytes(row.cdf);
+            }
     for (const Light &l : lights)
         if (const auto *env = std::get_if<EnvironmentLight>(&l)) {
             light_bytes += bytes(env->pixels);
