@@ -48,13 +48,16 @@ test: setup
 	$(VENV)/bin/pytest -n $(JOBS) --dist loadgroup -q tests
 
 # Style: ruff (lint and format, pyproject.toml) for Python, clang-format (.clang-format) for C++;
-# mypy for the public API's type hints (against the native module's stub, volpath/_core.pyi).
+# mypy for the public API's type hints (against the native module's stub, volpath/_core.pyi);
+# lizard for the core's functions: none over 120 lines or 30 decision points, so that each
+# estimator reads in one sitting.
 CXX_SOURCES := $(shell find native -name '*.cpp' -o -name '*.h')
 lint: debian $(VENV)/.requirements
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	clang-format --dry-run --Werror $(CXX_SOURCES)
 	$(VENV)/bin/mypy
+	$(VENV)/bin/lizard -l cpp --length 120 --CCN 30 --warnings_only native/src
 
 # volpath/_core.pyi, the native module's type stub, generated from the built module.
 stubs: setup

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <string_view>
 #include <unordered_map>
 
@@ -268,15 +269,45 @@ std::vector<VertexSlot> vertex_slots(const PlyElement &vertex, MeshArrays &out, 
     return slots;
 }
 
-}  // namespace
+// The header's elements with their properties, the body's encoding and where it starts.
+struct PlyHeader {
+    std::vector<PlyElement> elements;
+    PlyBody::Format encoding = PlyBody::Ascii;
+    size_t body_start = 0;
+    int body_line = 0;  // the body's first line number
+};
 
-MeshArrays read_ply(const std::string &path) {
-    const std::string data = read_all(path);
+// One header line's element or property, added to `elements`.
+void read_ply_declaration(std::string_view key, Fields &fields, std::vector<PlyElement> &elements,
+                          const std::function<void(const std::string &)> &fail) {
+    std::string_view a, b, c, d;
+    if (key == "element") {
+        PlyElement e;
+        if (!fields.next(a) || !fields.next(b) || !parse(b, e.count) || e.count < 0)
+            fail("expected 'element <name> <count>'");
+        e.name = a;
+        elements.push_back(std::move(e));
+        return;
+    }
+    if (elements.empty()) fail("property before any element");
+    PlyProperty p;
+    if (!fields.next(a) || !fields.next(b)) fail("expected 'property <type> <name>'");
+    if (a == "list") {
+        if (!fields.next(c) || !fields.next(d)) fail("expected 'property list <count type> <type> <name>'");
+        p.list = true, p.name = d;
+        if (!ply_type(b, p.count_type) || !ply_type(c, p.type)) fail("unknown type of property '" + p.name + "'");
+    } else {
+        p.name = b;
+        if (!ply_type(a, p.type)) fail("unknown type of property '" + p.name + "'");
+    }
+    elements.back().properties.push_back(std::move(p));
+}
+
+PlyHeader read_ply_header(const std::string &data, const std::string &path) {
     const size_t header_end = data.find("end_header");
     if (data.compare(0, 3, "ply") != 0 || header_end == std::string::npos)
         throw MeshFileError(path + ": not a PLY file (missing 'ply' magic or 'end_header')");
-    const size_t body = data.find('\n', header_end);
-    std::vector<PlyElement> elements;
+    PlyHeader header;
     std::string format;
     int line = 0;
     for (size_t at = 0; at < header_end;) {
@@ -287,72 +318,69 @@ MeshArrays read_ply(const std::string &path) {
         const auto fail = [&](const std::string &what) {
             throw MeshFileError(path + ":" + std::to_string(line) + ": " + what);
         };
-        std::string_view key, a, b, c, d;
+        std::string_view key, a;
         if (!fields.next(key)) continue;
         if (key == "format") {
             fields.next(a);
             format = a;
-        } else if (key == "element") {
-            PlyElement e;
-            if (!fields.next(a) || !fields.next(b) || !parse(b, e.count) || e.count < 0)
-                fail("expected 'element <name> <count>'");
-            e.name = a;
-            elements.push_back(std::move(e));
-        } else if (key == "property") {
-            if (elements.empty()) fail("property before any element");
-            PlyProperty p;
-            if (!fields.next(a) || !fields.next(b)) fail("expected 'property <type> <name>'");
-            if (a == "list") {
-                if (!fields.next(c) || !fields.next(d)) fail("expected 'property list <count type> <type> <name>'");
-                p.list = true, p.name = d;
-                if (!ply_type(b, p.count_type) || !ply_type(c, p.type))
-                    fail("unknown type of property '" + p.name + "'");
-            } else {
-                p.name = b;
-                if (!ply_type(a, p.type)) fail("unknown type of property '" + p.name + "'");
-            }
-            elements.back().properties.push_back(std::move(p));
+        } else if (key == "element" || key == "property") {
+            read_ply_declaration(key, fields, header.elements, fail);
         }
     }
-    PlyBody::Format encoding;
     if (format == "ascii")
-        encoding = PlyBody::Ascii;
+        header.encoding = PlyBody::Ascii;
     else if (format == "binary_little_endian")
-        encoding = PlyBody::LittleEndian;
+        header.encoding = PlyBody::LittleEndian;
     else if (format == "binary_big_endian")
-        encoding = PlyBody::BigEndian;
+        header.encoding = PlyBody::BigEndian;
     else
         throw MeshFileError(path + ": unknown PLY format '" + format + "'");
     // The body starts on the line after end_header's (its line: the header's lines + 2).
-    const size_t body_start = body == std::string::npos ? data.size() : body + 1;
-    PlyBody in{path, encoding, data.data() + body_start, data.data() + data.size(), line + 2, ""};
+    const size_t body = data.find('\n', header_end);
+    header.body_start = body == std::string::npos ? data.size() : body + 1;
+    header.body_line = line + 2;
+    return header;
+}
+
+// One element's rows: a vertex's positions, normals and uvs into `out` (slots), a face's
+// vertex indices as a fan of triangles; other elements are read past.
+void read_ply_rows(PlyBody &in, const PlyElement &e, const std::vector<VertexSlot> &slots, MeshArrays &out) {
+    const bool vertex = e.name == "vertex", face = e.name == "face";
+    std::vector<int64_t> polygon;
+    for (int64_t row = 0; row < e.count; ++row) {
+        for (size_t k = 0; k < e.properties.size(); ++k) {
+            const PlyProperty &p = e.properties[k];
+            if (!p.list) {
+                const double x = in.read(p.type);
+                if (vertex && slots[k].to) (*slots[k].to)[size_t(row) * slots[k].width + slots[k].component] = x;
+                continue;
+            }
+            const double n = in.read(p.count_type);
+            if (!(n >= 0 && n == int64_t(n))) in.fail("a list's length must be a count, got " + std::to_string(n));
+            const bool indices = face && (p.name == "vertex_indices" || p.name == "vertex_index");
+            if (indices) polygon.clear();
+            for (int64_t i = 0; i < int64_t(n); ++i) {
+                const double x = in.read(p.type);
+                if (indices) polygon.push_back(int64_t(x));
+            }
+            if (indices) fan(polygon, out.triangles);
+        }
+    }
+}
+
+}  // namespace
+
+MeshArrays read_ply(const std::string &path) {
+    const std::string data = read_all(path);
+    const PlyHeader header = read_ply_header(data, path);
+    PlyBody in{path, header.encoding, data.data() + header.body_start, data.data() + data.size(), header.body_line, ""};
     MeshArrays out;
     bool has_vertices = false, has_faces = false;
-    std::vector<int64_t> polygon;
-    for (const PlyElement &e : elements) {
+    for (const PlyElement &e : header.elements) {
         in.element = e.name;
-        const bool vertex = e.name == "vertex", face = e.name == "face";
-        std::vector<VertexSlot> slots = vertex ? vertex_slots(e, out, path) : std::vector<VertexSlot>();
-        has_vertices |= vertex, has_faces |= face;
-        for (int64_t row = 0; row < e.count; ++row) {
-            for (size_t k = 0; k < e.properties.size(); ++k) {
-                const PlyProperty &p = e.properties[k];
-                if (!p.list) {
-                    const double x = in.read(p.type);
-                    if (vertex && slots[k].to) (*slots[k].to)[size_t(row) * slots[k].width + slots[k].component] = x;
-                    continue;
-                }
-                const double n = in.read(p.count_type);
-                if (!(n >= 0 && n == int64_t(n))) in.fail("a list's length must be a count, got " + std::to_string(n));
-                const bool indices = face && (p.name == "vertex_indices" || p.name == "vertex_index");
-                if (indices) polygon.clear();
-                for (int64_t i = 0; i < int64_t(n); ++i) {
-                    const double x = in.read(p.type);
-                    if (indices) polygon.push_back(int64_t(x));
-                }
-                if (indices) fan(polygon, out.triangles);
-            }
-        }
+        const bool vertex = e.name == "vertex";
+        has_vertices |= vertex, has_faces |= e.name == "face";
+        read_ply_rows(in, e, vertex ? vertex_slots(e, out, path) : std::vector<VertexSlot>(), out);
     }
     if (!has_vertices || !has_faces) throw MeshFileError(path + ": PLY file needs 'vertex' and 'face' elements");
     return out;
