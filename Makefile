@@ -76,7 +76,7 @@ $(VENV)/.bench: requirements-bench.txt $(VENV)/.requirements
 	touch $@
 
 bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
-	$(PY) bench/compare_mitsuba.py --out bench/RESULTS.md
+	$(PY) bench/compare_mitsuba.py --append bench/RESULTS.md
 	$(PY) bench/export_speed.py --append bench/RESULTS.md
 	$(PY) bench/pipeline_throughput.py --append bench/RESULTS.md
 	$(PY) bench/frame_reuse.py --append bench/RESULTS.md

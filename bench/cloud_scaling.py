@@ -178,7 +178,7 @@ def main():
         "above its imports (VmHWM); reader: the peak of Volpath's short-lived VDB-reading child. Ratios: "
         "Volpath's over the better peer's.\n\n" + table(COLUMNS, rows)
     )
-    publish(section, args.append)
+    publish(section, args.append, key="cloud_scaling")
 
 
 if __name__ == "__main__":

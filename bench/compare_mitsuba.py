@@ -27,6 +27,8 @@ LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 if os.path.exists(LLVM):
     os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
 
+from publish import publish  # noqa: E402  (bench/)
+
 import volpath  # noqa: E402
 
 SCENES = {
@@ -249,9 +251,7 @@ def main():
     ap.add_argument("--ladder", type=int, nargs="+", default=[1, 4, 16, 64, 256])
     ap.add_argument("--target-spp", type=int, default=64)
     ap.add_argument("--ref-seconds", type=float, default=60.0, help="time budget of each reference")
-    ap.add_argument(
-        "--out", help="write a new Markdown file here with this table (make bench appends the other benchmarks)"
-    )
+    ap.add_argument("--append", help="put this table in that Markdown file, in place of its earlier one")
     ap.add_argument(
         "--repeats",
         type=int,
@@ -274,28 +274,7 @@ def main():
     for key in args.scenes:
         print(f"({key}) {SCENES[key][0]} ...", flush=True)
         results[key] = run_scene(key, args, variants)
-    text = markdown(results, args, variants)
-    print(text)
-    if args.out:
-        kept = kept_section(args.out)
-        with open(args.out, "w") as f:
-            f.write(
-                "# Benchmark results\n\nProduced by `make bench` (bench/compare_mitsuba.py); "
-                "each section's numbers come from one run, not always the same one: this table names its\n"
-                "machine and date, and later sections theirs where they were measured apart.\n\n" + kept + text
-            )
-
-
-def kept_section(path):
-    """The measurements behind the core's constants (between the constants markers), which
-    no benchmark remakes: a new RESULTS.md keeps them."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            old = f.read()
-    except FileNotFoundError:
-        return ""
-    start, end = old.find("<!-- constants"), old.find("<!-- /constants -->")
-    return old[start : end + len("<!-- /constants -->")] + "\n\n" if 0 <= start < end else ""
+    publish(markdown(results, args, variants), args.append, key="peers")
 
 
 if __name__ == "__main__":

@@ -201,7 +201,9 @@ def main():
         "the fog and the surfaces are path traced, while Volpath traces every sky path through the "
         "atmosphere; Cycles' time at low spp is mostly its fixed cost (scene sync).\n"
     )
-    publish(section, args.append)
+    publish(
+        section, args.append, key=f"cycles_sunrise {args.res}" + (f" frame {args.frame}" if args.frame != 34 else "")
+    )
 
 
 def VARIANTS(volpath_render, cycles_render):
@@ -336,7 +338,7 @@ pixel filter's alone, and no path tracer of the air reaches its time. The skies 
 in model (docs/sky_cycles_volpath.png: Cycles left, Volpath right at 64 spp, each at its own
 exposure).
 """
-    publish(section, args.append)
+    publish(section, args.append, key="cycles_sunrise sky")
 
 
 if __name__ == "__main__":

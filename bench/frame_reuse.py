@@ -75,6 +75,7 @@ def main():
         "(checked). Besides the samples: loading, building and the sky map.\n\n"
         "| per frame | time | besides the samples | vs Cycles |\n|---|---|---|---|\n" + "\n".join(rows) + "\n",
         args.append,
+        key="frame_reuse",
     )
 
 

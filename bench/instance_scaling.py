@@ -241,7 +241,7 @@ def main():
         "in turn with the field's (target: at most "
         "3x at 100 000 instances, within 2 GB).\n\n" + table(COLUMNS, rows)
     )
-    publish(section, args.append)
+    publish(section, args.append, key="instance_scaling")
 
 
 if __name__ == "__main__":

@@ -185,7 +185,7 @@ def main():
         + "\n\n"
         + table(COLUMNS, rows)
     )
-    publish(section, args.append)
+    publish(section, args.append, key="mesh_loading")
 
 
 if __name__ == "__main__":

@@ -68,7 +68,7 @@ def main():
         + "\n".join(rows)
         + "\n"
     )
-    publish(section, args.append)
+    publish(section, args.append, key="pipeline_throughput")
 
 
 if __name__ == "__main__":

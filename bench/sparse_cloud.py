@@ -119,7 +119,7 @@ RMSE relative to the global majorant (time x MSE; target ≤ 0.5x):
 |---|---|---|---|
 {rows}
 """
-    publish(section, sys.argv[2] if len(sys.argv) > 2 and sys.argv[1] == "--append" else None)
+    publish(section, sys.argv[2] if len(sys.argv) > 2 and sys.argv[1] == "--append" else None, key="sparse_cloud")
 
 
 if __name__ == "__main__":

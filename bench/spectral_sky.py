@@ -62,7 +62,7 @@ from around 600 nm (Rayleigh scattering 1.6x stronger there): its error against 
 reference levels off at the colour bias, which no number of samples removes. Spectral mode
 shares each pixel's samples out over its four passes: equal spp, about equal time.
 """
-    publish(section, sys.argv[2] if len(sys.argv) > 2 and sys.argv[1] == "--append" else None)
+    publish(section, sys.argv[2] if len(sys.argv) > 2 and sys.argv[1] == "--append" else None, key="spectral_sky")
 
 
 if __name__ == "__main__":

@@ -121,7 +121,7 @@ def main():
             f"- frame {frame} (reference {ref_seconds:.0f} s): spectral {', '.join(f'{c:.3f}' for c in ref_c)}; "
             f"RGB {', '.join(f'{c:.3f}' for c in rgb_c)}"
         )
-    publish("\n".join(lines) + "\n", args.append)
+    publish("\n".join(lines) + "\n", args.append, key="spectral_sunrise")
 
 
 if __name__ == "__main__":

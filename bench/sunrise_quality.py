@@ -113,7 +113,7 @@ def main():
         "(target: 0.02); the estimate is the renderer's own, before denoising; seconds per frame on "
         "one worker thread (the pool runs two).\n\n" + table(COLUMNS, rows)
     )
-    publish(section, args.append)
+    publish(section, args.append, key="sunrise_quality")
 
 
 if __name__ == "__main__":

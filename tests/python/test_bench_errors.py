@@ -88,3 +88,18 @@ def test_the_accuracy_study_measures_net_errors_and_bias(tmp_path, monkeypatch):
     # Time to an error between the rungs' errors (0.5 at 4 s, 0.25 at 16 s): the fit's slope
     # is -0.5, so 0.3 takes (0.5 / 0.3)^2 * 4 = 11.1 s.
     assert abs(run.time_to(pts, 0.3, 0.0) / 11.1 - 1) < 0.1
+
+
+def test_a_published_section_replaces_its_earlier_figure(tmp_path, capsys):
+    """bench/RESULTS.md holds the current figure per question: a section published again
+    under its key replaces the old one in place, others stay, a new key goes at the end."""
+    from publish import publish
+
+    path = tmp_path / "RESULTS.md"
+    path.write_text("# Results\n\n<!-- results: a -->\n## A\nold a\n\n<!-- results: b -->\n## B\nb\n")
+    publish("\n## A\nnew a\n", str(path), key="a")
+    publish("## C\nc\n", str(path))  # keyed by its heading
+    text = path.read_text()
+    assert text.count("<!-- results: a -->") == 1 and "old a" not in text and "new a" in text
+    assert text.index("new a") < text.index("## B") < text.index("<!-- results: C -->")
+    assert text.startswith("# Results\n") and "new a" in capsys.readouterr().out

@@ -56,3 +56,14 @@ def test_the_check_sees_a_leak():
     assert private_volpath("volpath", "_core") and private_volpath("volpath.plugins.media", "X")
     assert private_volpath("volpath.volume", "_check_values") and not private_volpath("volpath.volume", "VolumeGrid")
     assert not private_volpath("volpath", "__version__")
+
+
+def test_the_native_map_names_every_file():
+    """native/README.md's map of the core stays the folder's: every source file is in it."""
+    with open(os.path.join(ROOT, "native", "README.md"), encoding="utf-8") as f:
+        text = f.read()
+    missing = []
+    for folder in ("native/src", "native/include/volpath", "native/bindings"):
+        for _, _, files in os.walk(os.path.join(ROOT, folder)):
+            missing += [f for f in files if f.endswith((".cpp", ".h")) and f not in text]
+    assert not missing, f"native/README.md does not name {missing}"
