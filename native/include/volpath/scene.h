@@ -46,6 +46,8 @@ struct Camera {
 // that guides flights through the air and the sky maps it lights, and what makes shape
 // queries cheap. A frame's update (a light or the camera moved) rebuilds this one object;
 // the description stays as loaders and exporters wrote it, and the BVH as it was built.
+// (What depends on one medium alone, its majorant grid and the air's transmittance table,
+// is built with the medium by add_medium and kept with it: no frame changes it.)
 struct RenderContext {
     // Lights by role (indices into Scene::lights).
     std::vector<int> infinite_lights;  // environments and suns: found by rays that escape

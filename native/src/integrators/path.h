@@ -106,44 +106,55 @@ enum class Step { Reached, NewRay, Ended };
 // takes through media and at surfaces. The weights follow pbrt-v4's rescaled path
 // probabilities: r_u for the path's own sampling, r_l for the light strategy's.
 struct Path {
+    // What the path reads.
     const Scene &scene;
     const TracerConfig &config;
     const Features feat;
     Sampler &sampler;
+    const int channel;  // the colour channel that samples distances (spectral MIS)
+
+    // The estimate so far (pbrt-v4's names): L the radiance gathered, beta the throughput
+    // over the path's pdf in `channel`, r_u and r_l the rescaled pdfs of the path's own
+    // sampling and of the light strategy; `gathered`, the sample's radiance from the
+    // camera's other branches (drawn from streams of their own), which Russian roulette's
+    // check counts with L.
+    Spectrum L{0.0}, beta{1.0}, r_u{1.0}, r_l{1.0};
+    Spectrum gathered{0.0};
+
+    // Where the path is: its ray, the medium that ray travels in, and what the ray was
+    // traced for.
     Ray ray;
     int medium;
-    Branch branch;
-    // The sample's radiance from the camera's other branches (drawn from streams of their
-    // own), which Russian roulette's check counts with the path's L.
-    Spectrum gathered{0.0};
-    Spectrum L{0.0}, beta{1.0}, r_u{1.0}, r_l{1.0};
-    const int channel;
-    int depth = 0;                       // real scattering events so far
-    bool specular_bounce = true;         // the camera counts as specular: nothing to MIS with
-    RayKind ray_kind = RayKind::Camera;  // what the current ray was traced for
-    bool scattered_in_air = false;       // the current ray's, if a Scatter ray: its event was in the air
+    RayKind ray_kind = RayKind::Camera;
+    bool specular_bounce = true;    // the camera counts as specular: nothing to MIS with
+    bool scattered_in_air = false;  // the current ray's, if a Scatter ray: its event was in the air
+
+    // The last scattering vertex: how deep, where, and what MIS with the lights there needs.
+    int depth = 0;  // real scattering events so far
+    Vec3 prev_p;
     // After a bounce, where a light hides from some lobes (Scene::lights_hide_lobes): the
     // share of the BSDF value in the ray's direction from its diffuse lobe.
     Spectrum diffuse_share{0.0};
-    Vec3 prev_p;
-    int null_collisions = 0, null_crossings = 0;
-    // The last scattering vertex, when a distance drawn for a light could have made it too:
-    // r_ld is that strategy's rescaled pdf for the path since (updated like r_l), without
-    // its density at the vertex, which depends on the light the path finds.
+    // The vertex, when a distance drawn for a light could have made it too: r_ld is that
+    // strategy's rescaled pdf for the path since (updated like r_l), without its density at
+    // the vertex, which depends on the light the path finds.
     std::optional<SegmentVertex> scattered_at;
     Spectrum r_ld{0.0};
-    // The camera ray's medium segments: the one the path is in (counted at each change of
-    // medium and each cut of the air), the last one split, and whether this path may split
-    // (the forced collisions' branches do not: one split per segment and sample).
+    int null_collisions = 0, null_crossings = 0;  // safety caps' counts
+
+    // The camera's split segments (see Branch): which part of the segment this path
+    // estimates; the camera ray's medium segment it is in (counted at each change of medium
+    // and each cut of the air), the last one split, and whether this path may split (the
+    // forced collisions' branches do not: one split per segment and sample); a forced
+    // branch's stratum of the collision probability among its segment's.
+    Branch branch = Branch::All;
     int segment = 0, split_at = -1;
     bool may_split = true;
-    // A forced branch's index among its segment's: the stratum of the collision
-    // probability that its forced collision is drawn in.
     int stratum = 0, strata = 1;
 
     Path(const Scene &scene, Ray ray, int medium, Sampler &sampler, const TracerConfig &config)
-        : scene(scene), config(config), feat(features_of(config)), sampler(sampler), ray(ray), medium(medium),
-          branch(Branch::All), channel(std::min(int(sampler.next_1d() * 3), 2)), prev_p(ray.o) {}
+        : scene(scene), config(config), feat(features_of(config)), sampler(sampler),
+          channel(std::min(int(sampler.next_1d() * 3), 2)), ray(ray), medium(medium), prev_p(ray.o) {}
 
     Spectrum trace(const FirstHit *first = nullptr);
     bool splits_segment() const;
