@@ -29,7 +29,7 @@ import numpy as np
 import volpath
 
 from . import video
-from .frames import film_shape, pack, render_frame
+from .frames import film_shape, pack, read_animation, render_frame
 
 
 @dataclass
@@ -95,13 +95,22 @@ class Run:
         self.cancel = cancel or threading.Event()
         self.status = {}
         self.summary_path = os.path.join(out_dir, "summary.json")
+        self._animation_json = None  # animation.json, read when first needed
         os.makedirs(os.path.join(out_dir, "frames"), exist_ok=True)
 
     # -- bookkeeping --------------------------------------------------------------------------
+
+    def _animation(self):
+        if self._animation_json is None:
+            self._animation_json = read_animation(self.animation_dir)
+        return self._animation_json
+
     def _write_summary(self, **extra):
         summary = {
             "options": asdict(self.options),
             "frames": {str(f): self.status[f] for f in self.frames if f in self.status},
+            # What the export found animated but could not follow (addon/export/animation.py).
+            "frozen": self._animation().get("frozen", []),
             **extra,
         }
         tmp = self.summary_path + ".tmp"

@@ -36,22 +36,34 @@ def export_animation(scene, frames, directory):
     finally:
         scene.frame_set(current)
     write_directory(exported, directory)
-    animation = {"suns": exported.suns, "frames": _suns_and_camera(scene, frames)}
+    followed = {*exported.suns.values(), *exported.sequences.values()}
+    per_frame, frozen = _per_frame(scene, frames, followed)
+    animation = {"suns": exported.suns, "frames": per_frame, "frozen": frozen}
+    warnings = list(exported.warnings)
+    if frozen:
+        warnings.append(
+            f"animated but frozen at frame {frames[0]} in the video (the pipeline follows Sun lamps' directions, "
+            "the camera's placement and VDB sequences only): "
+            + "; ".join(f"{f['what']} ({f['changes']}, from frame {f['from_frame']})" for f in frozen)
+        )
     if exported.sequences:
         _volume_sequences(scene, exported.sequences, animation["frames"], directory)
     tmp = os.path.join(directory, ANIMATION_FILE + ".tmp")
     with open(tmp, "w", encoding="utf-8") as f:
         json.dump(animation, f, indent=1)
     os.replace(tmp, os.path.join(directory, ANIMATION_FILE))
-    return exported.warnings
+    return warnings
 
 
-def _suns_and_camera(scene, frames):
-    """Per frame: the direction of every Sun lamp and the camera's to_world."""
+def _per_frame(scene, frames, followed):
+    """Per frame, what the pipeline follows: the direction of every Sun lamp and the camera's
+    to_world; and what changes over `frames` that it does not follow, which stays as the
+    first frame has it: [{"what", "changes", "from_frame"}], found by comparing what Blender
+    evaluates at each frame with the first (issue #57 follows them)."""
     import bpy
 
     current = scene.frame_current
-    out = []
+    out, first, changed = [], None, {}
     try:
         for f in frames:
             scene.frame_set(f)
@@ -63,9 +75,92 @@ def _suns_and_camera(scene, frames):
             }
             cam = scene.camera.evaluated_get(depsgraph) if scene.camera else None
             out.append({"frame": f, "suns": suns, "camera": camera.to_world(cam).tolist() if cam is not None else None})
+            state = _unfollowed_state(scene, depsgraph, followed)
+            if first is None:
+                first = state
+                continue
+            for key in first.keys() | state.keys():
+                if key not in changed and (key not in state or key not in first or not _same(first[key], state[key])):
+                    changed[key] = f
     finally:
         scene.frame_set(current)
-    return out
+    frozen = [{"what": what, "changes": changes, "from_frame": f} for (what, changes), f in sorted(changed.items())]
+    return out, frozen
+
+
+def _same(a, b):
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.allclose(a, b, rtol=1e-6, atol=1e-9)
+
+
+def _node_values(tree):
+    """The unlinked inputs' values of a node tree (what keyframes on a node change)."""
+    values = []
+    for node in tree.nodes if tree else ():
+        for socket in node.inputs:
+            value = getattr(socket, "default_value", None)
+            if value is not None and not socket.is_linked and not isinstance(value, str):
+                values.extend(np.ravel(np.asarray(value, dtype=np.float64)).tolist())
+    return values
+
+
+LIGHT_SETTINGS = ("energy", "color", "shadow_soft_size", "spot_size", "spot_blend", "angle", "size", "size_y", "spread")
+CAMERA_SETTINGS = ("lens", "sensor_width", "sensor_height", "shift_x", "shift_y", "clip_start", "clip_end")
+
+
+def _unfollowed_state(scene, depsgraph, followed):
+    """{(what, changes): values} at the current frame for everything the pipeline exports once:
+    objects' placements (all but the camera's, the Sun lamps' and VDB sequences'), lamp and
+    camera settings, deformed meshes, instances' placements, material and world node values."""
+    state = {}
+    for obj in scene.objects:
+        ob = obj.evaluated_get(depsgraph)
+        what = f"{obj.type.lower()} '{obj.name}'"
+        sun = obj.type == "LIGHT" and obj.data.type == "SUN"
+        if obj != scene.camera and not sun and obj.name not in followed:
+            state[(what, "placement")] = np.array(ob.matrix_world)
+        if obj.type == "LIGHT":
+            state[(what, "settings")] = np.concatenate(
+                [np.ravel(getattr(ob.data, a)) for a in LIGHT_SETTINGS if hasattr(ob.data, a)]
+            )
+            state[(what, "node values")] = _node_values(
+                ob.data.node_tree if getattr(ob.data, "use_nodes", False) else None
+            )
+        elif obj.type == "CAMERA":
+            state[(what, "settings")] = [getattr(ob.data, a) for a in CAMERA_SETTINGS]
+        elif obj.type == "MESH" and _may_deform(obj):
+            mesh = ob.to_mesh()  # evaluated: modifiers and shape keys applied
+            co = np.empty(3 * len(mesh.vertices))
+            mesh.vertices.foreach_get("co", co)
+            ob.to_mesh_clear()
+            state[(what, "shape")] = co
+    placements = {}
+    for inst in depsgraph.object_instances:
+        if inst.is_instance:
+            placements.setdefault(f"instances of '{inst.object.name}'", []).append(np.array(inst.matrix_world))
+    for what, matrices in placements.items():
+        state[(what, "placements")] = np.array(matrices)
+    for material in _materials(scene):
+        state[(f"material '{material.name}'", "node values")] = _node_values(material.node_tree)
+    if scene.world is not None:
+        state[(f"world '{scene.world.name}'", "node values")] = _node_values(scene.world.node_tree)
+    return state
+
+
+def _may_deform(obj):
+    """Whether an object's mesh can change from frame to frame: modifiers (an armature's
+    among them), shape keys, or an armature parent."""
+    return bool(obj.modifiers) or obj.data.shape_keys is not None or (obj.parent and obj.parent.type == "ARMATURE")
+
+
+def _materials(scene):
+    """The materials the scene's objects use."""
+    seen = {}
+    for obj in scene.objects:
+        for slot in getattr(obj, "material_slots", ()):
+            if slot.material is not None:
+                seen[slot.material.name] = slot.material
+    return seen.values()
 
 
 def _volume_sequences(scene, sequences, frames, directory):

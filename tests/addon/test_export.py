@@ -415,3 +415,73 @@ def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(
     assert exported.scene["Area"]["emitter"]["hidden_from"] == "glossy"
     assert not any("'Cube'" in w or "'Point'" in w or "'Area'" in w for w in exported.warnings), exported.warnings
     volpath.load_dict(exported.scene)  # the loader takes a light's lobe, scatter and shadow visibility
+
+
+def test_what_the_pipeline_cannot_follow_is_named_not_frozen_silently(blank, tmp_path):
+    """Issue #57's user: a cube keyframed across the floor, a point lamp from 300 W to 1500 W
+    and a material from red to green. Until the pipeline follows them, the export names each
+    (animation.json, the warnings the report and summary.json show); the sun's direction and
+    the camera, which it follows, are not named."""
+    add_camera(blank)
+    bpy.ops.object.light_add(type="SUN")
+    sun = bpy.context.object
+    for f, angle in ((1, 80), (5, 30)):
+        sun.rotation_euler = (0, math.radians(angle), 0)
+        sun.keyframe_insert("rotation_euler", frame=f)
+    bpy.ops.mesh.primitive_cube_add(location=(-3, 0, 1))
+    cube = bpy.context.object
+    cube.keyframe_insert("location", frame=1)
+    cube.location = (3, 0, 1)
+    cube.keyframe_insert("location", frame=5)
+    paint = material("paint", Base_Color=(0.8, 0.1, 0.1, 1))
+    cube.data.materials.append(paint)
+    colour = paint.node_tree.nodes["Principled BSDF"].inputs["Base Color"]
+    colour.keyframe_insert("default_value", frame=1)
+    colour.default_value = (0.1, 0.8, 0.1, 1)
+    colour.keyframe_insert("default_value", frame=5)
+    bpy.ops.object.light_add(type="POINT", location=(0, 0, 4))
+    lamp = bpy.context.object
+    lamp.data.energy = 300
+    lamp.data.keyframe_insert("energy", frame=1)
+    lamp.data.energy = 1500
+    lamp.data.keyframe_insert("energy", frame=5)
+    # And the other kinds the detector looks for: a shape key, a focal length, a world's strength.
+    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0))
+    plane = bpy.context.object
+    plane.shape_key_add(name="Basis")
+    key = plane.shape_key_add(name="Bulge")
+    key.data[0].co.z = 1.0
+    key.value = 0.0
+    key.keyframe_insert("value", frame=1)
+    key.value = 1.0
+    key.keyframe_insert("value", frame=5)
+    blank.camera.data.keyframe_insert("lens", frame=1)
+    blank.camera.data.lens = 80
+    blank.camera.data.keyframe_insert("lens", frame=5)
+    strength = set_background(blank, (0.1, 0.2, 0.4)).node_tree.nodes["Background"].inputs["Strength"]
+    strength.keyframe_insert("default_value", frame=1)
+    strength.default_value = 3.0
+    strength.keyframe_insert("default_value", frame=5)
+    warnings = export_animation(blank, [1, 3, 5], str(tmp_path))
+    frozen = json.loads((tmp_path / "animation.json").read_text())["frozen"]
+    named = {(f["what"], f["changes"]) for f in frozen}
+    assert named == {
+        ("mesh 'Cube'", "placement"),
+        ("material 'paint'", "node values"),
+        ("light 'Point'", "settings"),
+        ("mesh 'Plane'", "shape"),
+        ("camera 'Camera'", "settings"),
+        ("world 'world'", "node values"),
+    }
+    assert all(f["from_frame"] == 3 for f in frozen)
+    assert any("animated but frozen at frame 1" in w and "mesh 'Cube'" in w for w in warnings)
+
+
+def test_a_sunrise_has_nothing_frozen(tmp_path):
+    """What the sunrise animates (its sun and camera) the pipeline follows: nothing named."""
+    from blender_scenes import tiny_animation
+
+    tiny_animation()
+    warnings = export_animation(bpy.context.scene, [1, 2, 4], str(tmp_path))
+    assert json.loads((tmp_path / "animation.json").read_text())["frozen"] == []
+    assert not any("frozen" in w for w in warnings)
