@@ -4,15 +4,20 @@ camera (what Blender evaluated at that frame), and the grids of VDB sequences.
 An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
 ``animation.json``::
 
-    {"suns": {"<scene key>": "<Blender object>"},
-     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]}, "camera": 4x4,
-                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...]}
+    {"suns": {"<scene key>": "<Blender object>"}, "lamps": {"<scene key>": "<Blender object>"},
+     "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]},
+                 "lamps": {"<Blender object>": {emitter}}, "camera": 4x4,
+                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...],
+     "frozen": [{"what": "mesh 'Cube'", "changes": "placement", "from_frame": 2}, ...]}
 
 ``suns``: the scene's sun emitters and the Sun lamps they came from; per frame, each lamp's
 direction (where its light travels, in scene coordinates) and the camera's ``to_world``
-(null without a camera). ``volumes`` only for VDB sequences: their grids at that frame, as
-scene-language volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting
-volume's radiance written sparse by volpath.xml_writer).
+(null without a camera). ``lamps``: the point and sun emitters followed frame by frame, each
+frame holding the emitter as Blender evaluates the lamp there (power, colour, position,
+direction). ``volumes`` only for VDB sequences: their grids at that frame, as scene-language
+volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting volume's radiance
+written sparse by volpath.xml_writer). ``frozen``: what the export found animated but the
+pipeline does not follow (it stays as the first frame has it).
 
 The Blender add-on writes the directory (``addon/export/animation.py``). ``render_frame``
 is what a worker runs (a local process or a Dask worker): it needs volpath only, never
@@ -103,8 +108,14 @@ def film_shape(directory):
 
 
 def frame_dictionary(d, animation, entry):
-    """The scene dictionary at one frame: sun directions and camera from ``entry``."""
+    """The scene dictionary at one frame: lamps, sun directions and camera from ``entry``."""
     d = copy.copy(d)  # shallow: only the entries replaced below are copied
+    for key, obj_name in animation.get("lamps", {}).items():
+        if key not in d:
+            raise SceneError(f"animation: lamp '{key}' is not in the scene")
+        if obj_name in entry.get("lamps", {}):
+            lamp = entry["lamps"][obj_name]
+            d[key] = {k: np.asarray(v, dtype=np.float64) if isinstance(v, list) else v for k, v in lamp.items()}
     for key, obj_name in animation["suns"].items():
         if key not in d:
             raise SceneError(f"animation: sun '{key}' is not in the scene")

@@ -41,11 +41,13 @@ class Report:
 class Exported:
     """``scene``: the dictionary; ``warnings``/``notes``: what the report shows;
     ``suns``: keys of the sun emitters, with the Blender objects they came from;
+    ``lamps``: the same for every point and sun emitter of a lamp that is no instance (an
+    animation follows their settings frame by frame);
     ``sequences``: {key: volume object} for the VDB sequences (files change with the frame)."""
 
-    def __init__(self, scene, report, suns, sequences):
+    def __init__(self, scene, report, suns, lamps, sequences):
         self.scene, self.warnings, self.notes = scene, report.warnings, report.notes
-        self.suns, self.sequences = suns, sequences
+        self.suns, self.lamps, self.sequences = suns, lamps, sequences
 
 
 _CONVERTIBLE = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -68,7 +70,7 @@ def export_scene(depsgraph, mesh_cache=None):
         },
         "camera": camera.export(scene, report),
     }
-    suns, sequences = {}, {}
+    suns, lamps, sequences = {}, {}, {}
     sun_lamps = [
         inst for inst in depsgraph.object_instances if inst.object.type == "LIGHT" and inst.object.data.type == "SUN"
     ]
@@ -104,6 +106,8 @@ def export_scene(depsgraph, mesh_cache=None):
                 k = add(obj.name, entry)
                 if entry["type"] == "sun":
                     suns[k] = obj.original.name
+                if entry["type"] in lights.FOLLOWED and not inst.is_instance:
+                    lamps[k] = obj.original.name
         elif obj.type in _CONVERTIBLE:
             placed = _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report)
             if placed.parts:
@@ -117,7 +121,7 @@ def export_scene(depsgraph, mesh_cache=None):
                     sequences[k] = obj.original.name
         elif obj.type not in ("CAMERA", "EMPTY", "ARMATURE", "LIGHT_PROBE", "SPEAKER", "LATTICE"):
             report.warn(f"object '{obj.name}': {obj.type.lower()} objects are not supported (skipped)")
-    return Exported(_place_meshes(d), report, suns, sequences)
+    return Exported(_place_meshes(d), report, suns, lamps, sequences)
 
 
 def _unique(name, taken):

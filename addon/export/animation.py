@@ -36,14 +36,13 @@ def export_animation(scene, frames, directory):
     finally:
         scene.frame_set(current)
     write_directory(exported, directory)
-    followed = {*exported.suns.values(), *exported.sequences.values()}
-    per_frame, frozen = _per_frame(scene, frames, followed)
-    animation = {"suns": exported.suns, "frames": per_frame, "frozen": frozen}
+    per_frame, frozen = _per_frame(scene, frames, exported)
+    animation = {"suns": exported.suns, "lamps": exported.lamps, "frames": per_frame, "frozen": frozen}
     warnings = list(exported.warnings)
     if frozen:
         warnings.append(
-            f"animated but frozen at frame {frames[0]} in the video (the pipeline follows Sun lamps' directions, "
-            "the camera's placement and VDB sequences only): "
+            f"animated but frozen at frame {frames[0]} in the video (the pipeline follows the camera's "
+            "placement, point and sun lamps and VDB sequences only): "
             + "; ".join(f"{f['what']} ({f['changes']}, from frame {f['from_frame']})" for f in frozen)
         )
     if exported.sequences:
@@ -55,13 +54,17 @@ def export_animation(scene, frames, directory):
     return warnings
 
 
-def _per_frame(scene, frames, followed):
-    """Per frame, what the pipeline follows: the direction of every Sun lamp and the camera's
-    to_world; and what changes over `frames` that it does not follow, which stays as the
-    first frame has it: [{"what", "changes", "from_frame"}], found by comparing what Blender
-    evaluates at each frame with the first (issue #57 follows them)."""
+def _per_frame(scene, frames, exported):
+    """Per frame, what the pipeline follows: the direction of every Sun lamp, the point and sun
+    lamps' emitters (Exported.lamps) and the camera's to_world; and what changes over `frames`
+    that it does not follow, which stays as the first frame has it: [{"what", "changes",
+    "from_frame"}], found by comparing what Blender evaluates at each frame with the first
+    (issue #57 follows them)."""
     import bpy
 
+    from . import Report
+
+    followed = {*exported.lamps.values(), *exported.sequences.values()}
     current = scene.frame_current
     out, first, changed = [], None, {}
     try:
@@ -74,7 +77,18 @@ def _per_frame(scene, frames, followed):
                 if o.type == "LIGHT" and o.data.type == "SUN"
             }
             cam = scene.camera.evaluated_get(depsgraph) if scene.camera else None
-            out.append({"frame": f, "suns": suns, "camera": camera.to_world(cam).tolist() if cam is not None else None})
+            lamps = {}
+            for name in exported.lamps.values():
+                lamp = bpy.data.objects[name].evaluated_get(depsgraph)
+                lamps[name] = _jsonable(lights.export(lamp, lamp.matrix_world, Report()))
+            out.append(
+                {
+                    "frame": f,
+                    "suns": suns,
+                    "lamps": lamps,
+                    "camera": camera.to_world(cam).tolist() if cam is not None else None,
+                }
+            )
             state = _unfollowed_state(scene, depsgraph, followed)
             if first is None:
                 first = state
@@ -86,6 +100,11 @@ def _per_frame(scene, frames, followed):
         scene.frame_set(current)
     frozen = [{"what": what, "changes": changes, "from_frame": f} for (what, changes), f in sorted(changed.items())]
     return out, frozen
+
+
+def _jsonable(entry):
+    """A plugin dictionary with its arrays as lists."""
+    return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in entry.items()}
 
 
 def _same(a, b):
@@ -110,8 +129,9 @@ CAMERA_SETTINGS = ("lens", "sensor_width", "sensor_height", "shift_x", "shift_y"
 
 def _unfollowed_state(scene, depsgraph, followed):
     """{(what, changes): values} at the current frame for everything the pipeline exports once:
-    objects' placements (all but the camera's, the Sun lamps' and VDB sequences'), lamp and
-    camera settings, deformed meshes, instances' placements, material and world node values."""
+    objects' placements (all but the camera's, the followed lamps' and VDB sequences'; a sun's
+    has no effect), other lamps' and the camera's settings, deformed meshes, instances'
+    placements, material and world node values."""
     state = {}
     for obj in scene.objects:
         ob = obj.evaluated_get(depsgraph)
@@ -119,7 +139,7 @@ def _unfollowed_state(scene, depsgraph, followed):
         sun = obj.type == "LIGHT" and obj.data.type == "SUN"
         if obj != scene.camera and not sun and obj.name not in followed:
             state[(what, "placement")] = np.array(ob.matrix_world)
-        if obj.type == "LIGHT":
+        if obj.type == "LIGHT" and obj.name not in followed:  # followed lamps are exported at every frame
             state[(what, "settings")] = np.concatenate(
                 [np.ravel(getattr(ob.data, a)) for a in LIGHT_SETTINGS if hasattr(ob.data, a)]
             )

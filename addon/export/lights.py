@@ -37,6 +37,11 @@ def hidden_from(obj):
     return ", ".join(hidden_kinds(obj))
 
 
+# The emitters an animation follows frame by frame: a loaded scene replaces them cheaply
+# (volpath's Scene.update), so every frame has the lamp as Blender evaluates it there.
+FOLLOWED = ("point", "sun")
+
+
 def export(obj, matrix_world, report):
     """The emitter (or emitting shape) of one light instance, or None; unsupported lights
     are reported, never dropped silently."""
