@@ -8,7 +8,7 @@ An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
      "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]},
                  "lamps": {"<Blender object>": {emitter}}, "camera": 4x4,
                  "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...],
-     "frozen": [{"what": "mesh 'Cube'", "changes": "placement", "from_frame": 2}, ...]}
+     "animated": [{"what": "mesh 'Cube'", "changes": "placement", "from_frame": 2}, ...]}
 
 ``suns``: the scene's sun emitters and the Sun lamps they came from; per frame, each lamp's
 direction (where its light travels, in scene coordinates) and the camera's ``to_world``
@@ -16,8 +16,10 @@ direction (where its light travels, in scene coordinates) and the camera's ``to_
 frame holding the emitter as Blender evaluates the lamp there (power, colour, position,
 direction). ``volumes`` only for VDB sequences: their grids at that frame, as scene-language
 volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting volume's radiance
-written sparse by volpath.xml_writer). ``frozen``: what the export found animated but the
-pipeline does not follow (it stays as the first frame has it).
+written sparse by volpath.xml_writer). ``animated``: what else the export found animated (what, what
+changes, from which frame); each frame where any of it differs from the first is exported
+whole beside the first, its entry naming that file (``"scene": "scene_0005.xml"``), and
+rendered from it.
 
 The Blender add-on writes the directory (``addon/export/animation.py``). ``render_frame``
 is what a worker runs (a local process or a Dask worker): it needs volpath only, never
@@ -135,6 +137,16 @@ def frame_dictionary(d, animation, entry):
     return d
 
 
+def _whole_frame(directory, filename):
+    """A frame's own scene file, loaded (the frames' usual scene stays cached as it is)."""
+    from volpath import load_dict
+    from volpath.xml_reader import read_xml
+
+    path = os.path.join(directory, filename)
+    with open(path, encoding="utf-8") as f:
+        return load_dict(read_xml(f.read(), path, {}), base_dir=directory, source=path)
+
+
 def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, target_error=None, denoise=False):
     """Render one frame; returns (image, metadata). The seed defaults to the frame number,
     so a frame is the same bits wherever and however often it is rendered. With
@@ -148,12 +160,15 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, tar
         raise SceneError(f"frame {frame} is not in the exported animation")
     entry = entries[0]
     start = time.perf_counter()
-    # A worker builds the scene once; the frames after it move the camera and the suns
-    # (Scene.update), unless more changes (a VDB sequence's grids).
-    frame_d = frame_dictionary(d, animation, entry)
-    scene = _scenes.get(directory)
-    if scene is None or not scene.update(frame_d):
-        scene = _scenes[directory] = load_dict(frame_d, base_dir=directory)
+    if "scene" in entry:  # exported whole: what changes there is more than updates follow
+        scene = _whole_frame(directory, entry["scene"])
+    else:
+        # A worker builds the scene once; the frames after it move the camera and the lamps
+        # (Scene.update), unless more changes (a VDB sequence's grids).
+        frame_d = frame_dictionary(d, animation, entry)
+        scene = _scenes.get(directory)
+        if scene is None or not scene.update(frame_d):
+            scene = _scenes[directory] = load_dict(frame_d, base_dir=directory)
     scene.source = f"frame {frame}"
     image = render(
         scene,

@@ -109,8 +109,9 @@ class Run:
         summary = {
             "options": asdict(self.options),
             "frames": {str(f): self.status[f] for f in self.frames if f in self.status},
-            # What the export found animated but could not follow (addon/export/animation.py).
-            "frozen": self._animation().get("frozen", []),
+            # What the export found animated besides the camera, lamps and VDB sequences, whose
+            # frames it exported whole (addon/export/animation.py).
+            "animated": self._animation().get("animated", []),
             **extra,
         }
         tmp = self.summary_path + ".tmp"

@@ -9,6 +9,7 @@ are written with ``repr``, which round-trips exactly; meshes and grids are float
 way, texels keep their bits).
 """
 
+import hashlib
 import os
 import shutil
 from xml.sax.saxutils import quoteattr
@@ -23,10 +24,13 @@ from .plugins import kind_of
 from .volume import VolumeGrid
 
 
-def write_scene(d, directory, filename="scene.xml"):
-    """Write the scene dictionary ``d`` into ``directory``; returns the XML file's path."""
+def write_scene(d, directory, filename="scene.xml", by_content=False):
+    """Write the scene dictionary ``d`` into ``directory``; returns the XML file's path.
+    ``by_content``: meshes' and texels' files are named by what they hold, and written only
+    where no file of that name is there yet, so that scenes written side by side (an
+    animation's frames) share the files that stay the same."""
     os.makedirs(directory, exist_ok=True)
-    writer = _Writer(directory)
+    writer = _Writer(directory, by_content)
     lines = ['<scene version="3.0.0">']
     for key, value in d.items():
         if key == "type" or key.startswith("__"):
@@ -80,25 +84,48 @@ def _num(v):
 
 
 class _Writer:
-    def __init__(self, directory):
+    def __init__(self, directory, by_content=False):
         self.directory = directory
+        self.by_content = by_content
         self.files = set()
 
-    def asset(self, folder, name, ext):
+    def asset(self, folder, name, ext, arrays=()):
+        """A file's path relative to the directory; by content, named after `arrays` too."""
         os.makedirs(os.path.join(self.directory, folder), exist_ok=True)
         stem = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "asset"
+        if self.by_content and arrays:
+            digest = hashlib.sha256()
+            for a in arrays:
+                if a is not None:
+                    a = np.ascontiguousarray(a)
+                    digest.update(f"{a.dtype}{a.shape}".encode())
+                    digest.update(a.tobytes())
+            return f"{folder}/{stem}_{digest.hexdigest()[:16]}.{ext}"
         rel, i = f"{folder}/{stem}.{ext}", 1
         while rel in self.files:
             rel, i = f"{folder}/{stem}_{i}.{ext}", i + 1
         self.files.add(rel)
         return rel
 
+    def write(self, rel, write):
+        """write(path) makes the file at rel; by content, only where it is not there yet, and
+        whole or not at all (a file found there later is whole)."""
+        path = os.path.join(self.directory, rel)
+        if not self.by_content:
+            write(path)
+        elif not os.path.exists(path):
+            stem, ext = os.path.splitext(path)
+            tmp = f"{stem}.tmp{os.getpid()}{ext}"
+            write(tmp)
+            os.replace(tmp, path)
+
     def entry(self, key, value, depth, top=False):
         pad = "    " * depth
         name = f" name={quoteattr(key)}"
         if isinstance(value, VolumeGrid):
             stem = os.path.splitext(os.path.basename(value.vdb[0]))[0] if value.vdb else key
-            value = write_volume(value, self.directory, lambda ext: self.asset("volumes", stem, ext), key)
+            content = (value.bricks, value.native.brick_index)
+            value = write_volume(value, self.directory, lambda ext: self.asset("volumes", stem, ext, content), key)
         if isinstance(value, dict):
             if value.get("type") == "ref":
                 return [f"{pad}<ref{name if not top else ''} id={quoteattr(value['id'])}/>"]
@@ -132,18 +159,19 @@ class _Writer:
             raise TypeError(f"'{key}': unknown plugin type {d.get('type')!r}")
         d = dict(d)
         if d["type"] == "mesh":  # arrays become a PLY file
-            rel = self.asset("meshes", key, "ply")
             arrays = d.pop("positions"), d.pop("indices"), d.pop("normals", None), d.pop("uvs", None)
-            write_ply(os.path.join(self.directory, rel), *arrays)
+            rel = self.asset("meshes", key, "ply", arrays)
+            self.write(rel, lambda path: write_ply(path, *arrays))
             d["type"], d["filename"] = "ply", rel
         elif d["type"] == "bitmap" and "data" in d:  # texels become a PNG (8-bit) or an EXR
             texels = np.asarray(d.pop("data"))
-            rel = self.asset("textures", key, "png" if texels.dtype == np.uint8 else "exr")
-            write_image(os.path.join(self.directory, rel), texels if texels.ndim == 3 else texels[..., None])
+            rel = self.asset("textures", key, "png" if texels.dtype == np.uint8 else "exr", (texels,))
+            self.write(rel, lambda path: write_image(path, texels if texels.ndim == 3 else texels[..., None]))
             d["filename"] = rel
         elif d["type"] == "gridvolume" and "data" in d:
-            rel = self.asset("volumes", key, "vol")
-            write_vol(os.path.join(self.directory, rel), d.pop("data"))
+            data = d.pop("data")
+            rel = self.asset("volumes", key, "vol", (np.asarray(data),))
+            self.write(rel, lambda path: write_vol(path, data))
             d["filename"] = rel
         attrs = f" type={quoteattr(d['type'])}"
         if top:

@@ -237,8 +237,9 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
     return _Placed((key, tuple(names), hidden) if shared else None, shapes, convert.matrix(inst.matrix_world))
 
 
-def write_directory(exported, directory):
-    """scene.xml with meshes/ and volumes/ beside it; returns the XML's path."""
+def write_directory(exported, directory, filename="scene.xml", by_content=False):
+    """scene.xml with meshes/ and volumes/ beside it; returns the XML's path. ``by_content``:
+    see volpath.xml_writer.write_scene (an animation's frames share their files)."""
     from volpath.xml_writer import write_scene
 
-    return write_scene(exported.scene, directory)
+    return write_scene(exported.scene, directory, filename, by_content)

@@ -35,18 +35,19 @@ def export_animation(scene, frames, directory):
         exported = export_scene(bpy.context.evaluated_depsgraph_get())
     finally:
         scene.frame_set(current)
-    write_directory(exported, directory)
-    per_frame, frozen = _per_frame(scene, frames, exported)
-    animation = {"suns": exported.suns, "lamps": exported.lamps, "frames": per_frame, "frozen": frozen}
+    write_directory(exported, directory, by_content=True)
+    per_frame, animated, whole = _per_frame(scene, frames, exported)
+    animation = {"suns": exported.suns, "lamps": exported.lamps, "frames": per_frame, "animated": animated}
     warnings = list(exported.warnings)
-    if frozen:
+    if animated:
         warnings.append(
-            f"animated but frozen at frame {frames[0]} in the video (the pipeline follows the camera's "
-            "placement, point and sun lamps and VDB sequences only): "
-            + "; ".join(f"{f['what']} ({f['changes']}, from frame {f['from_frame']})" for f in frozen)
+            f"{len(whole)} of {len(frames)} frames exported whole, for what the pipeline does not yet update "
+            "frame by frame (slower: an export and a scene load each): "
+            + "; ".join(f"{a['what']} ({a['changes']}, from frame {a['from_frame']})" for a in animated)
         )
+        warnings += _whole_frames(scene, [e for e in per_frame if e["frame"] in whole], directory, warnings)
     if exported.sequences:
-        _volume_sequences(scene, exported.sequences, animation["frames"], directory)
+        _volume_sequences(scene, exported.sequences, [e for e in per_frame if "scene" not in e], directory)
     tmp = os.path.join(directory, ANIMATION_FILE + ".tmp")
     with open(tmp, "w", encoding="utf-8") as f:
         json.dump(animation, f, indent=1)
@@ -55,18 +56,18 @@ def export_animation(scene, frames, directory):
 
 
 def _per_frame(scene, frames, exported):
-    """Per frame, what the pipeline follows: the direction of every Sun lamp, the point and sun
-    lamps' emitters (Exported.lamps) and the camera's to_world; and what changes over `frames`
-    that it does not follow, which stays as the first frame has it: [{"what", "changes",
-    "from_frame"}], found by comparing what Blender evaluates at each frame with the first
-    (issue #57 follows them)."""
+    """Per frame, what the pipeline updates frame by frame: the direction of every Sun lamp,
+    the point and sun lamps' emitters (Exported.lamps) and the camera's to_world. Then what
+    else changes over `frames`, found by comparing what Blender evaluates at each frame with
+    the first: [{"what", "changes", "from_frame"}], and the frames where anything of it
+    differs from the first, which are exported whole (_whole_frames)."""
     import bpy
 
     from . import Report
 
     followed = {*exported.lamps.values(), *exported.sequences.values()}
     current = scene.frame_current
-    out, first, changed = [], None, {}
+    out, first, changed, whole = [], None, {}, set()
     try:
         for f in frames:
             scene.frame_set(f)
@@ -94,12 +95,32 @@ def _per_frame(scene, frames, exported):
                 first = state
                 continue
             for key in first.keys() | state.keys():
-                if key not in changed and (key not in state or key not in first or not _same(first[key], state[key])):
-                    changed[key] = f
+                if key not in state or key not in first or not _same(first[key], state[key]):
+                    changed.setdefault(key, f)
+                    whole.add(f)
     finally:
         scene.frame_set(current)
-    frozen = [{"what": what, "changes": changes, "from_frame": f} for (what, changes), f in sorted(changed.items())]
-    return out, frozen
+    animated = [{"what": what, "changes": changes, "from_frame": f} for (what, changes), f in sorted(changed.items())]
+    return out, animated, whole
+
+
+def _whole_frames(scene, entries, directory, known):
+    """Each entry's frame exported whole beside the first (scene_NNNN.xml, sharing the files
+    that stay the same), named in its "scene"; returns the warnings not in `known`."""
+    import bpy
+
+    current = scene.frame_current
+    warnings = []
+    try:
+        for entry in entries:
+            scene.frame_set(entry["frame"])
+            exported = export_scene(bpy.context.evaluated_depsgraph_get())
+            entry["scene"] = f"scene_{entry['frame']:04d}.xml"
+            write_directory(exported, directory, entry["scene"], by_content=True)
+            warnings += [w for w in exported.warnings if w not in known and w not in warnings]
+    finally:
+        scene.frame_set(current)
+    return warnings
 
 
 def _jsonable(entry):

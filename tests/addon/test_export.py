@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -417,17 +418,22 @@ def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(
     volpath.load_dict(exported.scene)  # the loader takes a light's lobe, scatter and shadow visibility
 
 
-def test_what_the_pipeline_cannot_follow_is_named_not_frozen_silently(blank, tmp_path):
+def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     """Issue #57's user: a cube keyframed across the floor, a point lamp from 300 W to 1500 W
-    and a material from red to green. What the pipeline does not follow yet, the export names
-    (animation.json, the warnings the report and summary.json show); the sun, the point lamp
-    and the camera, which it follows, are not named."""
+    and a material from red to green; and a shape key, a focal length and a world's strength.
+    The export names what it found animated besides the camera, the lamps and VDB sequences
+    (animation.json, summary.json, the report), exports those frames whole, and every
+    pipeline frame is the bits of the scene exported afresh at that frame (what F12
+    renders). The mesh that does not change is written once."""
+    from pipeline.frames import render_frame
+
     add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     sun = bpy.context.object
     for f, angle in ((1, 80), (5, 30)):
         sun.rotation_euler = (0, math.radians(angle), 0)
         sun.keyframe_insert("rotation_euler", frame=f)
+    bpy.ops.mesh.primitive_plane_add(size=20)
     bpy.ops.mesh.primitive_cube_add(location=(-3, 0, 1))
     cube = bpy.context.object
     cube.keyframe_insert("location", frame=1)
@@ -445,45 +451,59 @@ def test_what_the_pipeline_cannot_follow_is_named_not_frozen_silently(blank, tmp
     lamp.data.keyframe_insert("energy", frame=1)
     lamp.data.energy = 1500
     lamp.data.keyframe_insert("energy", frame=5)
-    # And the other kinds the detector looks for: a shape key, a focal length, a world's strength.
-    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0))
-    plane = bpy.context.object
-    plane.shape_key_add(name="Basis")
-    key = plane.shape_key_add(name="Bulge")
+    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0.5))
+    bulge = bpy.context.object
+    bulge.shape_key_add(name="Basis")
+    key = bulge.shape_key_add(name="Bulge")
     key.data[0].co.z = 1.0
     key.value = 0.0
     key.keyframe_insert("value", frame=1)
     key.value = 1.0
     key.keyframe_insert("value", frame=5)
     blank.camera.data.keyframe_insert("lens", frame=1)
-    blank.camera.data.lens = 80
+    blank.camera.data.lens = 40
     blank.camera.data.keyframe_insert("lens", frame=5)
     strength = set_background(blank, (0.1, 0.2, 0.4)).node_tree.nodes["Background"].inputs["Strength"]
     strength.keyframe_insert("default_value", frame=1)
     strength.default_value = 3.0
     strength.keyframe_insert("default_value", frame=5)
-    warnings = export_animation(blank, [1, 3, 5], str(tmp_path))
-    frozen = json.loads((tmp_path / "animation.json").read_text())["frozen"]
-    named = {(f["what"], f["changes"]) for f in frozen}
+    anim = tmp_path / "anim"
+    warnings = export_animation(blank, [1, 3, 5], str(anim))
+    animation = json.loads((anim / "animation.json").read_text())
+    named = {(a["what"], a["changes"]) for a in animation["animated"]}
     assert named == {
         ("mesh 'Cube'", "placement"),
         ("material 'paint'", "node values"),
-        ("mesh 'Plane'", "shape"),
+        ("mesh 'Plane.001'", "shape"),
         ("camera 'Camera'", "settings"),
         ("world 'world'", "node values"),
     }
-    assert all(f["from_frame"] == 3 for f in frozen)
-    assert any("animated but frozen at frame 1" in w and "mesh 'Cube'" in w for w in warnings)
+    assert all(a["from_frame"] == 3 for a in animation["animated"])
+    assert [e.get("scene") for e in animation["frames"]] == [None, "scene_0003.xml", "scene_0005.xml"]
+    assert any("2 of 3 frames exported whole" in w and "mesh 'Cube'" in w for w in warnings)
+    floors = [f for f in os.listdir(anim / "meshes") if f.startswith("Plane_")]
+    assert len(floors) == 1  # the floor, the same at every frame, is one file
+    means = []
+    for f in (1, 3, 5):
+        image, _ = render_frame(str(anim), f, 4, threads=1)
+        blank.frame_set(f)
+        fresh = write_directory(export_scene(depsgraph()), tmp_path / f"f{f}")
+        expected = volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)
+        assert np.array_equal(image, expected), f"frame {f}"
+        means.append(image.mean())
+    assert means[2] > 1.5 * means[0]  # brighter lamp, world and greener cube: it really changed
 
 
-def test_a_sunrise_has_nothing_frozen(tmp_path):
-    """What the sunrise animates (its sun and camera) the pipeline follows: nothing named."""
+def test_a_sunrise_is_updated_frame_by_frame_not_exported_whole(tmp_path):
+    """What the sunrise animates (its sun and camera) the pipeline updates frame by frame:
+    nothing else is named, no frame is exported whole."""
     from blender_scenes import tiny_animation
 
     tiny_animation()
     warnings = export_animation(bpy.context.scene, [1, 2, 4], str(tmp_path))
-    assert json.loads((tmp_path / "animation.json").read_text())["frozen"] == []
-    assert not any("frozen" in w for w in warnings)
+    animation = json.loads((tmp_path / "animation.json").read_text())
+    assert animation["animated"] == [] and not any("scene" in e for e in animation["frames"])
+    assert not any("exported whole" in w for w in warnings)
 
 
 def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
@@ -510,7 +530,7 @@ def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
     lamp.data.keyframe_insert("energy", frame=5)
     anim = tmp_path / "anim"
     warnings = export_animation(blank, [1, 3, 5], str(anim))
-    assert not any("frozen" in w for w in warnings)
+    assert not any("exported whole" in w for w in warnings)
     means = []
     for f in (1, 3, 5):
         image, _ = render_frame(str(anim), f, 4, threads=1)

@@ -54,7 +54,7 @@ def test_python_entry_point_makes_frames_metadata_and_video(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert [summary["frames"][str(f)]["status"] for f in range(1, FRAMES + 1)] == ["rendered"] * FRAMES
     assert summary["video_frames"] == FRAMES and (out / "contact_sheet.png").exists()
-    assert summary["frozen"] == []  # its sun and camera are followed: nothing frozen
+    assert summary["animated"] == []  # its sun and camera are updated frame by frame: nothing else
 
 
 def test_frames_to_a_target_error_report_it_and_resume_by_it(tmp_path):
