@@ -1,7 +1,9 @@
 """A Blender animation as an animation directory: the scene once, and per frame what moves,
 evaluated by Blender itself (``frame_set``), so that fcurves, drivers and constraints
-count. The pipeline renders such a directory frame by frame without Blender
-(``pipeline.frames``, where the directory's format is described).
+count: the camera, the lamps and VDB sequences as updates of the first frame's scene, and
+whole scenes for the frames where anything else animated differs from the first. The
+pipeline renders such a directory frame by frame without Blender (``pipeline.frames``,
+where the directory's format is described).
 """
 
 import json
@@ -25,8 +27,9 @@ def frame_list(scene, frames=None, step=None):
 
 
 def export_animation(scene, frames, directory):
-    """Write scene.xml (+ meshes, volumes) at the first of ``frames`` and animation.json for
-    all of them into ``directory``; returns the export's warnings."""
+    """Write scene.xml (+ meshes, volumes) at the first of ``frames``, animation.json for all
+    of them, and scene_NNNN.xml for each frame where more changes than the frame-by-frame
+    updates follow (see _per_frame) into ``directory``; returns the export's warnings."""
     import bpy
 
     current = scene.frame_current
