@@ -418,6 +418,22 @@ def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(
     volpath.load_dict(exported.scene)  # the loader takes a light's lobe, scatter and shadow visibility
 
 
+def pipeline_frames_as_f12(scene, anim, frames, tmp_path):
+    """Asserts that each pipeline frame of the exported animation `anim` is the bits of the
+    scene exported afresh at that frame (what F12 renders); returns the frames' means."""
+    from pipeline.frames import render_frame
+
+    means = []
+    for f in frames:
+        image, _ = render_frame(str(anim), f, 4, threads=1)
+        scene.frame_set(f)
+        fresh = write_directory(export_scene(depsgraph()), tmp_path / f"f{f}")
+        expected = volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)
+        assert np.array_equal(image, expected), f"frame {f}"
+        means.append(image.mean())
+    return means
+
+
 def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     """Issue #57's user: a cube keyframed across the floor, a point lamp from 300 W to 1500 W
     and a material from red to green; and a shape key, a focal length and a world's strength.
@@ -425,8 +441,6 @@ def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     (animation.json, summary.json, the report), exports those frames whole, and every
     pipeline frame is the bits of the scene exported afresh at that frame (what F12
     renders). The mesh that does not change is written once."""
-    from pipeline.frames import render_frame
-
     add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     sun = bpy.context.object
@@ -483,14 +497,7 @@ def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     assert any("2 of 3 frames exported whole" in w and "mesh 'Cube'" in w for w in warnings)
     floors = [f for f in os.listdir(anim / "meshes") if f.startswith("Plane_")]
     assert len(floors) == 1  # the floor, the same at every frame, is one file
-    means = []
-    for f in (1, 3, 5):
-        image, _ = render_frame(str(anim), f, 4, threads=1)
-        blank.frame_set(f)
-        fresh = write_directory(export_scene(depsgraph()), tmp_path / f"f{f}")
-        expected = volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)
-        assert np.array_equal(image, expected), f"frame {f}"
-        means.append(image.mean())
+    means = pipeline_frames_as_f12(blank, anim, (1, 3, 5), tmp_path)
     assert means[2] > 1.5 * means[0]  # brighter lamp, world and greener cube: it really changed
 
 
@@ -510,8 +517,6 @@ def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
     """A point lamp from 300 W to 1500 W and a sun's strength and colour: each pipeline
     frame is the bits of the scene exported afresh at that frame (what F12 renders), the
     worker moving from frame to frame by Scene.update."""
-    from pipeline.frames import render_frame
-
     add_camera(blank)
     bpy.ops.mesh.primitive_plane_add(size=10)
     bpy.ops.object.light_add(type="SUN")
@@ -531,14 +536,7 @@ def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
     anim = tmp_path / "anim"
     warnings = export_animation(blank, [1, 3, 5], str(anim))
     assert not any("exported whole" in w for w in warnings)
-    means = []
-    for f in (1, 3, 5):
-        image, _ = render_frame(str(anim), f, 4, threads=1)
-        blank.frame_set(f)
-        fresh = write_directory(export_scene(depsgraph()), tmp_path / f"f{f}")
-        expected = volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)
-        assert np.array_equal(image, expected), f"frame {f}"
-        means.append(image.mean())
+    means = pipeline_frames_as_f12(blank, anim, (1, 3, 5), tmp_path)
     assert means[2] > 2 * means[0]  # the lamps really brightened
 
 
@@ -546,8 +544,6 @@ def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_render
     """A cylinder bent by a keyframed bone, and particles instancing a sphere from an emitter
     keyframed across the floor: named, exported whole, and each pipeline frame the bits of a
     fresh export at that frame."""
-    from pipeline.frames import render_frame
-
     add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     bpy.ops.mesh.primitive_plane_add(size=20)
@@ -577,8 +573,4 @@ def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_render
     animation = json.loads((anim / "animation.json").read_text())
     named = {(a["what"], a["changes"]) for a in animation["animated"]}
     assert {("mesh 'Cylinder'", "shape"), ("instances of 'Sphere'", "placements")} <= named
-    for f in (1, 3, 5):
-        image, _ = render_frame(str(anim), f, 4, threads=1)
-        blank.frame_set(f)
-        fresh = write_directory(export_scene(depsgraph()), tmp_path / f"f{f}")
-        assert np.array_equal(image, volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)), f"frame {f}"
+    pipeline_frames_as_f12(blank, anim, (1, 3, 5), tmp_path)
