@@ -418,6 +418,13 @@ def test_ray_visibility_is_followed_for_meshes_and_for_lights_but_surface_kinds(
     volpath.load_dict(exported.scene)  # the loader takes a light's lobe, scatter and shadow visibility
 
 
+def keyframed(owner, attribute, first, last):
+    """`owner.attribute` keyframed from `first` at frame 1 to `last` at frame 5."""
+    for frame, value in ((1, first), (5, last)):
+        setattr(owner, attribute, value)
+        owner.keyframe_insert(attribute, frame=frame)
+
+
 def pipeline_frames_as_f12(scene, anim, frames, tmp_path):
     """Asserts that each pipeline frame of the exported animation `anim` is the bits of the
     scene exported afresh at that frame (what F12 renders); returns the frames' means."""
@@ -450,37 +457,22 @@ def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     bpy.ops.mesh.primitive_plane_add(size=20)
     bpy.ops.mesh.primitive_cube_add(location=(-3, 0, 1))
     cube = bpy.context.object
-    cube.keyframe_insert("location", frame=1)
-    cube.location = (3, 0, 1)
-    cube.keyframe_insert("location", frame=5)
+    keyframed(cube, "location", (-3, 0, 1), (3, 0, 1))
     paint = material("paint", Base_Color=(0.8, 0.1, 0.1, 1))
     cube.data.materials.append(paint)
     colour = paint.node_tree.nodes["Principled BSDF"].inputs["Base Color"]
-    colour.keyframe_insert("default_value", frame=1)
-    colour.default_value = (0.1, 0.8, 0.1, 1)
-    colour.keyframe_insert("default_value", frame=5)
+    keyframed(colour, "default_value", (0.8, 0.1, 0.1, 1), (0.1, 0.8, 0.1, 1))
     bpy.ops.object.light_add(type="POINT", location=(0, 0, 4))
-    lamp = bpy.context.object
-    lamp.data.energy = 300
-    lamp.data.keyframe_insert("energy", frame=1)
-    lamp.data.energy = 1500
-    lamp.data.keyframe_insert("energy", frame=5)
+    keyframed(bpy.context.object.data, "energy", 300, 1500)
     bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0.5))
     bulge = bpy.context.object
     bulge.shape_key_add(name="Basis")
     key = bulge.shape_key_add(name="Bulge")
     key.data[0].co.z = 1.0
-    key.value = 0.0
-    key.keyframe_insert("value", frame=1)
-    key.value = 1.0
-    key.keyframe_insert("value", frame=5)
-    blank.camera.data.keyframe_insert("lens", frame=1)
-    blank.camera.data.lens = 40
-    blank.camera.data.keyframe_insert("lens", frame=5)
+    keyframed(key, "value", 0.0, 1.0)
+    keyframed(blank.camera.data, "lens", 50, 40)
     strength = set_background(blank, (0.1, 0.2, 0.4)).node_tree.nodes["Background"].inputs["Strength"]
-    strength.keyframe_insert("default_value", frame=1)
-    strength.default_value = 3.0
-    strength.keyframe_insert("default_value", frame=5)
+    keyframed(strength, "default_value", 1.0, 3.0)
     anim = tmp_path / "anim"
     warnings = export_animation(blank, [1, 3, 5], str(anim))
     animation = json.loads((anim / "animation.json").read_text())
@@ -520,19 +512,10 @@ def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
     add_camera(blank)
     bpy.ops.mesh.primitive_plane_add(size=10)
     bpy.ops.object.light_add(type="SUN")
-    sun = bpy.context.object
-    sun.data.energy, sun.data.color = 2.0, (1.0, 1.0, 1.0)
-    sun.data.keyframe_insert("energy", frame=1)
-    sun.data.keyframe_insert("color", frame=1)
-    sun.data.energy, sun.data.color = 5.0, (1.0, 0.5, 0.2)
-    sun.data.keyframe_insert("energy", frame=5)
-    sun.data.keyframe_insert("color", frame=5)
+    keyframed(bpy.context.object.data, "energy", 2.0, 5.0)
+    keyframed(bpy.context.object.data, "color", (1.0, 1.0, 1.0), (1.0, 0.5, 0.2))
     bpy.ops.object.light_add(type="POINT", location=(0, 0, 2))
-    lamp = bpy.context.object
-    lamp.data.energy = 300
-    lamp.data.keyframe_insert("energy", frame=1)
-    lamp.data.energy = 1500
-    lamp.data.keyframe_insert("energy", frame=5)
+    keyframed(bpy.context.object.data, "energy", 300, 1500)
     anim = tmp_path / "anim"
     warnings = export_animation(blank, [1, 3, 5], str(anim))
     assert not any("exported whole" in w for w in warnings)
@@ -555,9 +538,7 @@ def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_render
     cylinder.vertex_groups.new(name="Bone").add(list(range(len(cylinder.data.vertices))), 1.0, "REPLACE")
     bone = armature.pose.bones["Bone"]
     bone.rotation_mode = "XYZ"
-    bone.keyframe_insert("rotation_euler", frame=1)
-    bone.rotation_euler = (0.8, 0, 0)
-    bone.keyframe_insert("rotation_euler", frame=5)
+    keyframed(bone, "rotation_euler", (0, 0, 0), (0.8, 0, 0))
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.2, location=(0, 0, -50))
     ball = bpy.context.object
     bpy.ops.mesh.primitive_plane_add(size=2, location=(3, 0, 1))
@@ -565,9 +546,7 @@ def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_render
     particles = emitter.modifiers.new("scatter", "PARTICLE_SYSTEM").particle_system.settings
     particles.count, particles.frame_start, particles.frame_end, particles.lifetime = 20, 1, 1, 100
     particles.physics_type, particles.render_type, particles.instance_object = "NO", "OBJECT", ball
-    emitter.keyframe_insert("location", frame=1)
-    emitter.location = (3, 2, 1)
-    emitter.keyframe_insert("location", frame=5)
+    keyframed(emitter, "location", (3, 0, 1), (3, 2, 1))
     anim = tmp_path / "anim"
     export_animation(blank, [1, 3, 5], str(anim))
     animation = json.loads((anim / "animation.json").read_text())
