@@ -221,7 +221,7 @@ PYBIND11_MODULE(_probes, m) {
         s.build();
         return s.context.shadows_stop_at_any_hit;
     });
-    // Per medium: the shape that holds it and nothing else (Scene::medium_container), or -1.
+    // Per medium: the shape that holds it and nothing else (RenderContext::medium_container), or -1.
     // Per shape: whether it is a null medium boundary that a surface may lie on.
     m.def("boundary_with_contact", [](Scene &s) {
         s.build();

@@ -9,7 +9,7 @@
 
 namespace volpath {
 
-// Lights with a distance strategy of their own (Scene::segment_lights): all but
+// Lights with a distance strategy of their own (RenderContext::segment_lights): all but
 // environments. Seen through thin smoke, free flight's estimates of an environment's light
 // that passes through and of the light that scatters in are anticorrelated (one or the
 // other), and a second strategy for the in-scattering alone would be noisier.

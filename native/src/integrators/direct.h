@@ -30,14 +30,14 @@ bool trace_shadow(const Scene &scene, Ray ray, int current, const Light &light, 
                   Sampler &sampler, Shadow &s);
 
 // Next-event estimation from a scattering point: choose a light (uniformly among
-// Scene::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
+// RenderContext::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
 // sample a point on it and trace a shadow ray through index-matched boundaries and media.
 // `eval(d, hidden_lobes)` returns the scattering value f (times the cosine, for surfaces; of
 // the lobes the light does not hide from, kLobeRays bits), `pdf(d)` the
 // density of sampling d per channel: asked for only where phase or BSDF sampling could
 // find the light too (MIS). r_p is the path's rescaled unidirectional pdf.
 // `vertex`: the point is a SegmentVertex: drawn for its light, or free flight's collision,
-// which chooses among Scene::collision_nee_lights (see SegmentVertex).
+// which chooses among RenderContext::collision_nee_lights (see SegmentVertex).
 template <typename Eval, typename Pdf>
 Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface, int medium,
                        const Spectrum &beta, const Spectrum &r_p, int channel, bool mis, Sampler &sampler, Eval &&eval,

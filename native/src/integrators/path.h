@@ -49,7 +49,7 @@ inline const AtmosphereMedium *guided_air(const Medium &m) {
 // In homogeneous media each light has one NEE strategy: every segment that free flight
 // crosses estimates a segment light from a distance drawn for it, whether or not free
 // flight then collides there, and free flight's collisions estimate the environments
-// (Scene::collision_nee_lights). Free flight's vertex also finds emitters by phase
+// (RenderContext::collision_nee_lights). Free flight's vertex also finds emitters by phase
 // sampling; the power heuristic combines the two ways to each light, with the densities
 // averaged over channels.
 struct SegmentVertex {
@@ -132,7 +132,7 @@ struct Path {
     // The last scattering vertex: how deep, where, and what MIS with the lights there needs.
     int depth = 0;  // real scattering events so far
     Vec3 prev_p;
-    // After a bounce, where a light hides from some lobes (Scene::lights_hide_lobes): the
+    // After a bounce, where a light hides from some lobes (RenderContext::lights_hide_lobes): the
     // share of the BSDF value in the ray's direction from its diffuse lobe.
     Spectrum diffuse_share{0.0};
     // The vertex, when a distance drawn for a light could have made it too: r_ld is that
