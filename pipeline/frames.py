@@ -1,5 +1,6 @@
-"""Frames of an exported animation: one scene plus, per frame, the sun directions and the
-camera (what Blender evaluated at that frame), and the grids of VDB sequences.
+"""Frames of an exported animation: one scene plus, per frame, the camera, the lamps and the
+grids of VDB sequences (what Blender evaluated at that frame), and whole scenes for the
+frames where more changed.
 
 An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
 ``animation.json``::
@@ -75,31 +76,31 @@ def pack(directory):
 
 def _load(source):
     """(scene dictionary, base directory, animation) for a directory or packed bytes."""
-    from volpath.xml_reader import read_xml
-
     if isinstance(source, (bytes, bytearray)):
         key = hashlib.sha256(source).hexdigest()
         if key not in _cache:
             directory = tempfile.mkdtemp(prefix=f"volpath-anim-{key[:12]}-")
             with zipfile.ZipFile(io.BytesIO(source)) as z:
                 z.extractall(directory)
-            _cache[key] = _read(directory, read_xml)
+            _cache[key] = _read_scene(directory, SCENE_FILE), directory, read_animation(directory)
         return _cache[key]
     directory = os.path.abspath(os.fspath(source))
     path = os.path.join(directory, SCENE_FILE)
     key = (path, os.path.getmtime(path) if os.path.exists(path) else None)
     if key not in _cache:
-        _cache[key] = _read(directory, read_xml)
+        _cache[key] = _read_scene(directory, SCENE_FILE), directory, read_animation(directory)
     return _cache[key]
 
 
-def _read(directory, read_xml):
-    path = os.path.join(directory, SCENE_FILE)
+def _read_scene(directory, filename):
+    """The scene dictionary of a scene file in the animation directory."""
+    from volpath.xml_reader import read_xml
+
+    path = os.path.join(directory, filename)
     if not os.path.exists(path):
         raise SceneError(f"{path}: not found")
     with open(path, encoding="utf-8") as f:
-        d = read_xml(f.read(), path)
-    return d, directory, read_animation(directory)
+        return read_xml(f.read(), path)
 
 
 def film_shape(directory):
@@ -140,11 +141,8 @@ def frame_dictionary(d, animation, entry):
 def _whole_frame(directory, filename):
     """A frame's own scene file, loaded (the frames' usual scene stays cached as it is)."""
     from volpath import load_dict
-    from volpath.xml_reader import read_xml
 
-    path = os.path.join(directory, filename)
-    with open(path, encoding="utf-8") as f:
-        return load_dict(read_xml(f.read(), path, {}), base_dir=directory, source=path)
+    return load_dict(_read_scene(directory, filename), base_dir=directory, source=os.path.join(directory, filename))
 
 
 def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, target_error=None, denoise=False):
