@@ -14,6 +14,14 @@ inline int medium_after_crossing(const ShapeInfo &shape, const Vec3 &d, const Ve
 // Rays that keep re-entering index-matched surfaces (coincident boundaries) stop here.
 constexpr int kMaxNullCrossings = 256;
 
+// The integral of T(t) = exp(-sigma_t t) over [0, d], per channel: what a homogeneous
+// segment's emission sigma_a Le is weighted by (expm1: exact for thin media too).
+inline Spectrum transmittance_integral(const Spectrum &sigma_t, Real d) {
+    Spectrum span;
+    for (int c = 0; c < 3; ++c) span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
+    return span;
+}
+
 // The absorption tracer (absorption.cpp).
 Spectrum absorption_radiance(const Scene &scene, Ray ray, int medium, Sampler &sampler);
 

@@ -362,9 +362,7 @@ void Path::cross_without_scattering(const HomogeneousMedium &h, Real t_end) {
     const Spectrum sigma_t = h.sigma_a + h.sigma_s;
     const Real d = t_end - ray.t_min;
     if (!is_black(h.Le) && (feat.max_depth < 0 || depth < feat.max_depth)) {
-        Spectrum span;
-        for (int c = 0; c < 3; ++c) span[c] = sigma_t[c] > 0 ? -std::expm1(-sigma_t[c] * d) / sigma_t[c] : d;
-        L += beta * h.sigma_a * h.Le * span / average(r_u);
+        L += beta * h.sigma_a * h.Le * transmittance_integral(sigma_t, d) / average(r_u);
     }
     beta *= exp(-sigma_t * d);
 }
