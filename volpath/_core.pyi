@@ -80,7 +80,7 @@ class Scene:
         ...
     def add_directional_light(self, direction: typing.Annotated[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], "FixedSize(3)"], irradiance: typing.Annotated[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], "FixedSize(3)"], replace: typing.SupportsInt | typing.SupportsIndex = -1, hidden_from: typing.SupportsInt | typing.SupportsIndex = 0) -> int:
         ...
-    def add_environment(self, scale: typing.Annotated[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], "FixedSize(3)"], image: typing.Annotated[numpy.typing.ArrayLike, numpy.float32] | None, to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], to_local: typing.Annotated[numpy.typing.ArrayLike, numpy.float64]) -> int:
+    def add_environment(self, scale: typing.Annotated[collections.abc.Sequence[typing.SupportsFloat | typing.SupportsIndex], "FixedSize(3)"], image: typing.Annotated[numpy.typing.ArrayLike, numpy.float32] | None, to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], to_local: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], replace: typing.SupportsInt | typing.SupportsIndex = -1) -> int:
         ...
     def add_group(self) -> int:
         """
@@ -116,8 +116,20 @@ class Scene:
         """
     def build(self) -> None:
         ...
+    def replace_bsdf(self, bsdf: typing.SupportsInt | typing.SupportsIndex) -> None:
+        """
+        Gives BSDF `bsdf` the parameters of the last one added, which is taken off (a material's values at an animation's frame; a leaf BSDF without textures).
+        """
     def set_camera(self, to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], tan_x: typing.SupportsFloat | typing.SupportsIndex, tan_y: typing.SupportsFloat | typing.SupportsIndex, width: typing.SupportsInt | typing.SupportsIndex, height: typing.SupportsInt | typing.SupportsIndex, near_clip: typing.SupportsFloat | typing.SupportsIndex, far_clip: typing.SupportsFloat | typing.SupportsIndex, medium: typing.SupportsInt | typing.SupportsIndex, gaussian: bool, shift_x: typing.SupportsFloat | typing.SupportsIndex = 0.0, shift_y: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> None:
         ...
+    def set_group_mesh(self, shape: typing.SupportsInt | typing.SupportsIndex, positions: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], triangles: typing.Annotated[numpy.typing.ArrayLike, numpy.uint32], normals: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None = None, uvs: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None = None) -> None:
+        """
+        Replaces a shape group's mesh (a deformed mesh at an animation's frame); build() then rebuilds that group's BVH and refits the scene's.
+        """
+    def set_instances(self, instances: typing.Annotated[numpy.typing.ArrayLike, numpy.int32], to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64]) -> None:
+        """
+        Moves instances (an animation's frame): their indices, in the order added, and new maps (n, 4, 4). build() then refits the BVH.
+        """
     @property
     def height(self) -> int:
         ...

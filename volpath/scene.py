@@ -46,14 +46,15 @@ class Scene:
         return self.native.width
 
     def update(self, d: dict) -> bool:
-        """Move the scene to ``d``: the dictionary it was loaded from with its sensor or its
-        point, sun and directional emitters replaced, each by one of its type (an
-        animation's next frame, a lamp edited in the viewport). Only those are
-        built again; meshes, media, the BVH, and the sky map's levels while the sun stays
-        within their elevations, are kept, and the image is the same bits as
-        ``load_dict(d)``'s. Entries not replaced must be the same objects (as
-        ``pipeline.frames.frame_dictionary`` leaves them). Returns False, changing nothing,
-        where ``d`` differs in anything else or the scene has spectral passes."""
+        """Move the scene to ``d``: the dictionary it was loaded from with some of its
+        top-level entries replaced (an animation's next frame, a lamp edited in the
+        viewport). What can change in place does: the sensor; an emitter, by one of its type;
+        an instance's ``to_world`` (the BVH is refit, not rebuilt); a shape group's meshes
+        (that group's BVH alone is rebuilt); a shape's BSDF, by a leaf without textures.
+        Meshes, media, the BVH, and the sky map's levels while the sun stays within their
+        elevations, are kept, and rays find what ``load_dict(d)``'s would. Entries not
+        replaced must be the same objects or equal. Returns False, changing nothing, where
+        ``d`` differs in anything else or the scene has spectral passes."""
         if self.passes or self._builder is None:
             return False
         spp = self._builder.update(d)

@@ -57,6 +57,28 @@ inline std::vector<Vec3> points(const DoubleArray &a, const char *what) {
     return out;
 }
 
+using TriangleArray = py::array_t<uint32_t, py::array::c_style | py::array::forcecast>;
+
+// A mesh from its arrays: positions (n, 3), triangles (m, 3), normals like positions, uvs (n, 2).
+inline TriangleMesh triangle_mesh(const DoubleArray &positions, const TriangleArray &triangles,
+                                  const std::optional<DoubleArray> &normals, const std::optional<DoubleArray> &uvs) {
+    TriangleMesh mesh;
+    mesh.positions = points(positions, "positions");
+    if (normals) mesh.normals = points(*normals, "normals");
+    if (uvs) {
+        if (uvs->ndim() != 2 || uvs->shape(1) != 2 || uvs->shape(0) != positions.shape(0))
+            throw std::invalid_argument("uvs must have shape (n, 2), one per position");
+        mesh.uvs.resize(size_t(uvs->shape(0)));
+        for (size_t i = 0; i < mesh.uvs.size(); ++i) mesh.uvs[i] = {uvs->at(i, 0), uvs->at(i, 1)};
+    }
+    if (triangles.ndim() != 2 || triangles.shape(1) != 3)
+        throw std::invalid_argument("triangles must have shape (n, 3)");
+    mesh.triangles.resize(size_t(triangles.shape(0)));
+    for (size_t i = 0; i < mesh.triangles.size(); ++i)
+        mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
+    return mesh;
+}
+
 inline PhaseFunction phase(double g) {
     if (g == 0) return IsotropicPhase{};
     return HenyeyGreenstein{g};

@@ -500,28 +500,13 @@ PYBIND11_MODULE(_core, m) {
             py::arg("Le_world_to_grid") = py::none(), py::arg("Le_scale") = Array3{0.0, 0.0, 0.0})
         .def(
             "add_mesh",
-            [](Scene &s, const DoubleArray &positions,
-               const py::array_t<uint32_t, py::array::c_style | py::array::forcecast> &triangles,
+            [](Scene &s, const DoubleArray &positions, const TriangleArray &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
                std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided,
                double emitter_spread, int emitter_hidden_from, int group) {
-                TriangleMesh mesh;
-                mesh.positions = points(positions, "positions");
-                if (normals) mesh.normals = points(*normals, "normals");
-                if (uvs) {
-                    if (uvs->ndim() != 2 || uvs->shape(1) != 2 || uvs->shape(0) != positions.shape(0))
-                        throw std::invalid_argument("uvs must have shape (n, 2), one per position");
-                    mesh.uvs.resize(size_t(uvs->shape(0)));
-                    for (size_t i = 0; i < mesh.uvs.size(); ++i) mesh.uvs[i] = {uvs->at(i, 0), uvs->at(i, 1)};
-                }
-                if (triangles.ndim() != 2 || triangles.shape(1) != 3)
-                    throw std::invalid_argument("triangles must have shape (n, 3)");
-                mesh.triangles.resize(size_t(triangles.shape(0)));
-                for (size_t i = 0; i < mesh.triangles.size(); ++i)
-                    mesh.triangles[i] = {triangles.at(i, 0), triangles.at(i, 1), triangles.at(i, 2)};
                 const AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
                                             uint8_t(emitter_hidden_from)};
-                return s.add_shape_mesh(std::move(mesh),
+                return s.add_shape_mesh(triangle_mesh(positions, triangles, normals, uvs),
                                         shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
                                         radiance ? &emission : nullptr, group);
             },
@@ -530,6 +515,32 @@ PYBIND11_MODULE(_core, m) {
             py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false,
             py::arg("emitter_spread") = kPi, py::arg("emitter_hidden_from") = 0, py::arg("group") = -1)
         .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
+        .def(
+            "set_instances",
+            [](Scene &s, const py::array_t<int, py::array::c_style | py::array::forcecast> &instances,
+               const DoubleArray &to_world) {
+                const std::vector<Transform> maps = transforms(to_world, "to_world");
+                if (instances.ndim() != 1 || size_t(instances.shape(0)) != maps.size())
+                    throw std::invalid_argument("expected one instance per transform");
+                for (size_t i = 0; i < maps.size(); ++i) s.set_instance(instances.at(i), maps[i]);
+            },
+            "Moves instances (an animation's frame): their indices, in the order added, and new maps (n, 4, 4). "
+            "build() then refits the BVH.",
+            py::arg("instances"), py::arg("to_world"))
+        .def(
+            "set_group_mesh",
+            [](Scene &s, int shape, const DoubleArray &positions, const TriangleArray &triangles,
+               std::optional<DoubleArray> normals, std::optional<DoubleArray> uvs) {
+                s.set_group_mesh(shape, triangle_mesh(positions, triangles, normals, uvs));
+            },
+            "Replaces a shape group's mesh (a deformed mesh at an animation's frame); build() then rebuilds that "
+            "group's BVH and refits the scene's.",
+            py::arg("shape"), py::arg("positions"), py::arg("triangles"), py::arg("normals") = py::none(),
+            py::arg("uvs") = py::none())
+        .def("replace_bsdf", &Scene::replace_bsdf,
+             "Gives BSDF `bsdf` the parameters of the last one added, which is taken off (a material's values at an "
+             "animation's frame; a leaf BSDF without textures).",
+             py::arg("bsdf"))
         .def(
             "add_instances",
             [](Scene &s, const py::array_t<int, py::array::c_style | py::array::forcecast> &groups,
@@ -623,7 +634,7 @@ PYBIND11_MODULE(_core, m) {
         .def(
             "add_environment",
             [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,
-               const DoubleArray &to_local) {
+               const DoubleArray &to_local, int replace) {
                 EnvironmentLight env;
                 env.scale = vec(scale);
                 env.to_world = transform(to_world);
@@ -637,9 +648,9 @@ PYBIND11_MODULE(_core, m) {
                     for (size_t i = 0; i < env.pixels.size(); ++i)
                         env.pixels[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
                 }
-                return s.add_light(env);
+                return add_or_replace(s, env, replace, 0);
             },
-            py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"))
+            py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"), py::arg("replace") = -1)
         .def(
             "set_camera",
             [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,

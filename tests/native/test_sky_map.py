@@ -274,6 +274,7 @@ def test_an_animated_sun_and_camera_give_the_bits_of_a_fresh_load():
     the sky map's levels while the sun stays within their elevations, a new map beyond. Each
     frame renders the same bits as the frame loaded afresh; a change to anything else is
     refused and leaves the scene as it was."""
+    from volpath.plugins import kind_of
     from volpath.xml_reader import read_xml
 
     cam = S.camera(
@@ -299,8 +300,13 @@ def test_an_animated_sun_and_camera_give_the_bits_of_a_fresh_load():
         fresh = volpath.load_dict(frame)
         assert np.array_equal(volpath.render(scene, seed=3), volpath.render(fresh, seed=3)), elevation
     before = volpath.render(scene, seed=4)
+    lifted = np.eye(4)
+    lifted[1, 3] = 0.5
     moved_hill = {
-        k: (dict(v) if v.get("__kind__") == "shape" else v) if isinstance(v, dict) else v for k, v in frame.items()
+        k: dict(v, to_world=lifted @ v.get("to_world", np.eye(4)))
+        if isinstance(v, dict) and kind_of(v) == "shape"
+        else v
+        for k, v in frame.items()
     }
     assert not scene.update(moved_hill)
     assert np.array_equal(volpath.render(scene, seed=4), before)

@@ -204,3 +204,31 @@ def test_a_point_light_edited_in_place_gives_the_bits_of_a_fresh_load():
         assert not np.array_equal(image, before), change  # the change shows
         assert np.array_equal(image, volpath.render(volpath.load_dict(d), seed=2)), change
         before = image
+
+
+def test_a_material_and_a_world_changed_in_place_give_the_bits_of_a_fresh_load():
+    """Scene.update gives a shape's BSDF new values (a keyframed material) and a constant
+    world a new radiance in place: the image is a fresh load's, and the scene holds no
+    BSDF more than before. A change it cannot make in place (a texture, a shape's map)
+    returns False and changes nothing."""
+    import scenes as S
+    import volpath
+    from volpath.xml_reader import read_xml
+
+    d = read_xml(S.scene(S.camera(res=12, spp=2), S.floor(), S.point_light()), "<test>")
+    d["sky"] = {"type": "constant", "radiance": {"type": "rgb", "value": [0.2, 0.2, 0.2]}}
+    floor = next(k for k, v in d.items() if isinstance(v, dict) and v.get("type") == "rectangle")
+    scene = volpath.load_dict(d)
+    before, memory = volpath.render(scene, seed=2), scene.memory
+    green = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.1, 0.7, 0.2]}}
+    d = dict(d, sky={"type": "constant", "radiance": {"type": "rgb", "value": [0.6, 0.5, 0.4]}})
+    d[floor] = {**{k: v for k, v in d[floor].items() if not isinstance(v, dict)}, "bsdf": green}
+    assert scene.update(d)
+    image = volpath.render(scene, seed=2)
+    assert not np.array_equal(image, before)
+    assert np.array_equal(image, volpath.render(volpath.load_dict(d), seed=2))
+    assert scene.memory == memory
+    textured = dict(green, reflectance={"type": "checkerboard"})
+    for change in ({"bsdf": textured}, {"to_world": np.diag([2.0, 2.0, 2.0, 1.0])}):
+        assert not scene.update(dict(d, **{floor: dict(d[floor], **change)}))
+        assert np.array_equal(volpath.render(scene, seed=2), image)

@@ -196,3 +196,60 @@ def test_shadow_rays_decide_alike_by_any_hit_and_closest_hit():
     any_hit, closest = volpath.load_dict(d), volpath.load_dict(dict(d, aside=aside))
     assert _probes.shadows_stop_at_any_hit(any_hit.native) and not _probes.shadows_stop_at_any_hit(closest.native)
     np.testing.assert_array_equal(volpath.render(any_hit, seed=4), volpath.render(closest, seed=4))
+
+
+def field(maps, group):
+    """A floor and a field of instances of `group` (a shapegroup dictionary), one per map."""
+    d = {
+        "type": "scene",
+        "sensor": {"type": "perspective", "to_world": S.lookat([0, -6, 4], [0, 0, 0], [0, 0, 1])},
+        "floor": {"type": "rectangle", "to_world": placed([6.0, 6.0, 1.0], [0.0, 0.0, -1.5])},
+        "group": group,
+    }
+    for k, m in enumerate(maps):
+        d[f"i{k}"] = {"type": "instance", "group": {"type": "ref", "id": "group"}, "to_world": m}
+    return d
+
+
+def assert_same_hits(a, b, seed):
+    o, d = random_rays(4000, seed)
+    hits_a, hits_b = _probes.intersect(a.native, o, d), _probes.intersect(b.native, o, d)
+    for x, y in zip(hits_a, hits_b):
+        np.testing.assert_array_equal(x, y)
+    return hits_a
+
+
+def test_moved_instances_find_the_hits_of_a_fresh_build():
+    """Scene.update moves instances by refitting the BVH (the tree kept, the bounds made
+    to fit): frame after frame, as the instances cross the scene (one of them mirrored, one
+    leaving the others' region), rays find exactly what a scene loaded afresh finds."""
+    positions, triangles, normals, uvs = bump()
+    group = {"type": "shapegroup", "bump": mesh(positions, triangles, normals, uvs, {"type": "diffuse"})}
+    rng = np.random.default_rng(4)
+    maps = [placed([0.3, 0.3, 0.3], [x, y, 0.0]) for x, y in rng.uniform(-2, 2, (40, 2))]
+    d = field(maps, group)
+    scene = volpath.load_dict(d)
+    bvh = scene.memory["bvh"]
+    for frame in range(4):
+        d = dict(d)
+        d["i0"] = dict(d["i0"], to_world=placed([0.3, 0.3, 0.3], [-2 + 1.3 * frame, 0.5, 0.2 * frame]))
+        d["i1"] = dict(d["i1"], to_world=MIRRORED @ placed([0.5, 0.5, 0.5], [0, 0, 0.3 * frame]))
+        d["i2"] = dict(d["i2"], to_world=placed([0.4, 0.4, 0.4], [0, 0, 3.0 * frame]))  # rises away
+        assert scene.update(d)
+        t, shape, _ = assert_same_hits(scene, volpath.load_dict(d), seed=frame)
+        assert (shape == 1).sum() > 300  # the instances are hit, not only the floor
+    assert scene.memory["bvh"] == bvh  # refit in place: not a node more
+
+
+def test_a_deformed_group_mesh_finds_the_hits_of_a_fresh_build():
+    """A shape group's mesh replaced (a deformed mesh's next frame): that group's BVH is
+    built again and the scene's refit around its instances' new bounds."""
+    positions, triangles, normals, uvs = bump()
+    maps = [placed([0.5, 0.5, 0.5], [x, 0.0, 0.0]) for x in (-1.5, 0.0, 1.5)]
+    d = field(maps, {"type": "shapegroup", "bump": mesh(positions, triangles, normals, uvs, {"type": "diffuse"})})
+    scene = volpath.load_dict(d)
+    for frame in range(1, 3):
+        stretched = positions * [1.0, 1.0 + frame, 2.0 * frame]
+        d = dict(d, group={"type": "shapegroup", "bump": mesh(stretched, triangles, normals, uvs, {"type": "diffuse"})})
+        assert scene.update(d)
+        assert_same_hits(scene, volpath.load_dict(d), seed=frame)

@@ -28,6 +28,9 @@ class Builder:
         self.textures = {}  # id(dict) -> native index
         self.groups = {}  # id(dict) of a shapegroup -> native index
         self.instances = []  # (group, instance dict) waiting for shapes.add_instances
+        # What Scene.update changes in place: id(shape dict) -> (native shape, its bsdf), and
+        # id(instance dict) -> native instance.
+        self.built_shapes, self.built_instances = {}, {}
         self.building = set()
         self.summary = {
             "shapes": [],
@@ -39,7 +42,7 @@ class Builder:
             "camera": None,
             "warnings": [],
         }
-        self.lights = {}  # top-level key of a point, sun or directional emitter -> (native index, summary index)
+        self.lights = {}  # top-level key of an emitter -> (native index, summary index)
         self.medium_bounds = {}  # native medium index -> list of bounding boxes
         self.atmospheres = []  # (native medium index, centre, top radius)
         self.loc = d.get("__loc__")
@@ -96,31 +99,83 @@ class Builder:
         return settings
 
     def update(self, d):
-        """Scene.update: the new sample count, or None where ``d`` changes more than the
-        sensor and the point, sun and directional lights."""
+        """Scene.update: the new sample count, or None where ``d`` changes more than can be
+        changed in place (_update_step), having changed nothing."""
         if set(d) != set(self.d):
             return None
-        changed = [k for k in d if d[k] is not self.d[k]]
-        for k in changed:
-            kind = kind_of(d[k]) if isinstance(d[k], dict) else None
-            if not (
-                kind == "sensor"
-                or (kind == "emitter" and k in self.lights and d[k].get("type") == self.d[k].get("type"))
-            ):
-                return None
+        steps = []
+        for k in d:
+            if d[k] is not self.d[k] and not _equal(d[k], self.d[k]):
+                step = self._update_step(k, self.d[k], d[k])
+                if step is None:
+                    return None
+                steps.append(step)
 
         def update():
             self.d, self.ids = d, {}
             self._index_ids(d)
-            for k in changed:
-                if kind_of(d[k]) == "sensor":
-                    self.spp = sensors.build(self, d[k])
-                else:
-                    emitters.build(self, d[k], k)
+            for step in steps:
+                step()
             self.native.build()
             return self.spp
 
         return self._checked(update)
+
+    def _update_step(self, key, old, new):
+        """What brings top-level entry ``key`` from ``old`` to ``new`` in place (a function
+        to call), or None: the sensor; an emitter by one of its type; an instance moved; a
+        shape group's meshes deformed; a shape's BSDF (a leaf without textures) given new
+        parameters. A change of anything else loads the scene anew."""
+        if not isinstance(new, dict) or not isinstance(old, dict) or old.get("type") != new.get("type"):
+            return None
+        kind = kind_of(new)
+        if kind == "sensor":
+            return lambda: setattr(self, "spp", sensors.build(self, new))
+        if kind == "emitter" and key in self.lights:
+            return lambda: emitters.build(self, new, key)
+        if kind != "shape":
+            return None
+        if new["type"] == "instance":
+            k = self.built_instances.get(id(old))
+            if k is None or not _equal(old, new, but={"to_world"}):
+                return None
+
+            def move():
+                self.native.set_instances(np.array([k]), self.params(new, "shape").transform()[None])
+                self.built_instances[id(new)] = k
+
+            return move
+        if new["type"] == "shapegroup":
+            if set(old) != set(new):
+                return None
+            members = [self._member_step(old[m], new[m]) for m in new if isinstance(new[m], dict)]
+            return None if None in members else lambda: [step() for step in members]
+        return self._member_step(old, new, mesh=False)
+
+    def _member_step(self, old, new, mesh=True):
+        """A shape given a new BSDF, or (``mesh``: a shape group's member) new mesh data."""
+        built = self.built_shapes.get(id(old))
+        mesh_keys = {"positions", "indices", "normals", "uvs", "filename"} if mesh else set()
+        old_bsdf, new_bsdf = _bsdf_of(self, old), _bsdf_of(self, new)
+        if built is None or not _equal(old, new, but=mesh_keys | {"bsdf", *_bsdf_keys(old)}):
+            return None
+        if new_bsdf is not old_bsdf and not _equal(new_bsdf, old_bsdf) and not _plain_bsdf(self, new_bsdf):
+            return None
+        shape, bsdf = built
+
+        def step():
+            if not _equal(new_bsdf, old_bsdf):
+                cache, self.bsdfs = self.bsdfs, {}  # built anew, even where shapes share it
+                bsdfs.build(self, new_bsdf)
+                self.bsdfs = cache
+                self.native.replace_bsdf(bsdf)
+            if mesh_keys and not _equal(old, new, but={"bsdf", *_bsdf_keys(old)}):
+                p = self.params(new, "shape")
+                data = shapes.mesh_data(self, p, p.transform(), p.bool("flip_normals", False))
+                self.native.set_group_mesh(shape, *data)
+            self.built_shapes[id(new)] = built
+
+        return step
 
     def _checked(self, step):
         try:
@@ -191,3 +246,39 @@ class Builder:
                 m["extent"] = float(np.linalg.norm(hi - lo))
                 sig = m.get("sigma_t") or m.get("sigma_t_range")
                 m["optical_thickness"] = [float(min(sig)) * m["extent"], float(max(sig)) * m["extent"]]
+
+
+def _equal(a, b, but=()):
+    """Whether two scene entries say the same (where in a file they were read aside), but
+    for the top-level keys in ``but``."""
+    if a is b:
+        return True
+    if isinstance(a, dict) and isinstance(b, dict):
+        keys = (set(a) | set(b)) - {"__loc__"} - set(but)
+        return all(k in a and k in b and _equal(a[k], b[k]) for k in keys)
+    if isinstance(a, (dict, str)) or isinstance(b, (dict, str)):
+        return type(a) is type(b) and a == b
+    try:
+        return np.array_equal(np.asarray(a), np.asarray(b))
+    except (TypeError, ValueError):
+        return False
+
+
+def _bsdf_keys(shape):
+    """The keys of a shape's nested BSDF (it may be named anything)."""
+    return [k for k, v in shape.items() if isinstance(v, dict) and kind_of(v) == "bsdf"]
+
+
+def _bsdf_of(b, shape):
+    keys = _bsdf_keys(shape)
+    return b.resolve(shape[keys[0]]) if keys else None
+
+
+def _plain_bsdf(b, d):
+    """Whether a BSDF builds as one leaf without textures (what replace_bsdf takes)."""
+    if d is None:
+        return False
+    nested = [b.resolve(v) for k, v in d.items() if isinstance(v, dict) and not k.startswith("__")]
+    if d.get("type") == "twosided":
+        return len(nested) == 1 and nested[0].get("type") != "twosided" and _plain_bsdf(b, nested[0])
+    return d.get("type") not in bsdfs.LAYERS and all(v.get("type") in ("rgb", "spectrum") for v in nested)

@@ -10,8 +10,8 @@ from .shapes import light_hidden_from
 
 
 def build(b, d, key=None):
-    """Adds the emitter, or replaces the point, directional or sun light that was built
-    under the same top-level ``key`` (Scene.update)."""
+    """Adds the emitter, or replaces the light that was built under the same top-level
+    ``key`` (Scene.update)."""
     p = b.params(d, "emitter")
     n = b.native
     info = {"type": p.type, "loc": p.loc}
@@ -37,7 +37,7 @@ def build(b, d, key=None):
         info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
     elif p.type == "constant":
         radiance = p.rgb("radiance", 1.0, emitted=True)
-        n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4))
+        index = n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4), replace)
         info.update(radiance=radiance.tolist())
     elif p.type == "envmap":
         from ..exr import read_exr
@@ -55,7 +55,7 @@ def build(b, d, key=None):
         to_world = p.transform()
         if b.wavelengths is not None:
             image = spectral_colour(image, b.wavelengths, emitted=True).astype(np.float32)
-        n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world))
+        index = n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world), replace)
         info.update(filename=path, resolution=list(image.shape[1::-1]))
     elif p.type == "sun":
         if p.has("direction"):

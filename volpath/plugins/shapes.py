@@ -82,7 +82,7 @@ def build(b, d, group=-1):
         ):
             raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
         radius *= scales[0]
-        b.native.add_sphere(tuple(center), radius, flip, **common)
+        index = b.native.add_sphere(tuple(center), radius, flip, **common)
         bounds = np.array([center - radius, center + radius])
         b.summary["shapes"].append(
             {
@@ -99,34 +99,13 @@ def build(b, d, group=-1):
         # Under a mirroring map the mesh's faces turn inward; the box's do too.
         box_info = {k: v for k, v in common.items() if not k.startswith("emitter_") and k != "radiance"}
         mirrored = np.linalg.det(to_world[:3, :3]) < 0
-        b.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
+        index = b.native.add_box(to_world, np.linalg.inv(to_world), flip != mirrored, **box_info)
         corners = transform_points(to_world, cube()[0])
         bounds = np.array([corners.min(axis=0), corners.max(axis=0)])
         b.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type, "loc": p.loc})
     else:
-        if p.type == "rectangle":
-            positions, triangles, normals, uvs = rectangle()
-        elif p.type == "cube":
-            positions, triangles, normals, uvs = cube()
-        elif p.type in ("obj", "ply"):
-            path = b.path(p, "filename")
-            positions, triangles, normals, uvs = load_mesh(path)
-            if p.bool("face_normals", False):
-                normals = None
-        elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
-            positions, triangles, normals, uvs = mesh_arrays(p)
-        else:
-            raise p.error(
-                "unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh, shapegroup, instance)"
-            )
-        positions = transform_points(to_world, positions)
-        if normals is not None:
-            normals = transform_normals(to_world, normals)
-        if flip:
-            triangles = triangles[:, ::-1].copy()
-            if normals is not None:
-                normals = -normals
-        b.native.add_mesh(positions, triangles, normals, uvs=uvs, group=group, **common)
+        positions, triangles, normals, uvs = mesh_data(b, p, to_world, flip)
+        index = b.native.add_mesh(positions, triangles, normals, uvs=uvs, group=group, **common)
         bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
         b.summary["shapes"].append(
             {
@@ -143,6 +122,32 @@ def build(b, d, group=-1):
     if radiance is not None:
         b.summary["emitters"].append({"type": "area", "radiance": radiance.tolist(), "loc": p.loc})
     p.check()
+    b.built_shapes[id(d)] = (index, bsdf_index)
+
+
+def mesh_data(b, p, to_world, flip):
+    """(positions, triangles, normals, uvs) of a mesh shape, in the world (or its group)."""
+    if p.type == "rectangle":
+        positions, triangles, normals, uvs = rectangle()
+    elif p.type == "cube":
+        positions, triangles, normals, uvs = cube()
+    elif p.type in ("obj", "ply"):
+        path = b.path(p, "filename")
+        positions, triangles, normals, uvs = load_mesh(path)
+        if p.bool("face_normals", False):
+            normals = None
+    elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
+        positions, triangles, normals, uvs = mesh_arrays(p)
+    else:
+        raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh, shapegroup, instance)")
+    positions = transform_points(to_world, positions)
+    if normals is not None:
+        normals = transform_normals(to_world, normals)
+    if flip:
+        triangles = triangles[:, ::-1].copy()
+        if normals is not None:
+            normals = -normals
+    return positions, triangles, normals, uvs
 
 
 def shape_group(b, d):
@@ -184,6 +189,7 @@ def instance(b, d):
     p.raw("to_world")  # checked with the other instances' in add_instances
     p.check()
     b.instances.append((shape_group(b, groups[0]), d))
+    b.built_instances[id(d)] = b.summary["instances"]  # its index: add_instances adds them in this order
     b.summary["instances"] += 1
 
 

@@ -95,6 +95,14 @@ public:
     int add_group() { return group_count_++; }
     int add_instance(int group, const Transform &to_world, const Transform &to_local);
     void build();  // must be called after the last add
+    // An animation's next frame, after build(): instance k moved, or the mesh of `shape` (a
+    // shape group's member) deformed. refit() then brings the BVHs up to date: the changed
+    // groups' built again, the scene's refit (its tree kept, the moved instances' leaves
+    // and their ancestors' bounds made to fit), so that one object moving in a large scene
+    // costs no rebuild of the rest. Rays find the same hits as after a build.
+    void set_instance(int k, const Transform &to_world, const Transform &to_local);
+    void set_group_mesh(int shape, TriangleMesh mesh);
+    void refit();
     bool intersect(const Ray &ray, Intersection &its) const;
     // The closest hit on any shape but `skip`.
     bool intersect_except(const Ray &ray, int skip, Intersection &its) const;
@@ -163,6 +171,17 @@ private:
     static constexpr uint32_t kNoPrim = ~0u;
     std::vector<uint32_t> solid_prim_;
     uint32_t enclosure_ = kNoPrim;  // into top_.prims
+    void find_solids();             // solid_prim_ and enclosure_, from top_
+    // What refit() has to bring up to date: the instances moved and the groups changed.
+    std::vector<uint32_t> moved_;
+    std::vector<uint8_t> group_changed_;
+    // Made by refit()'s first call after a build: per node of top_ its parent, per instance
+    // its leaf (kNoPrim: none, its group is empty), and the exact bounds of top_'s
+    // primitives but the instances.
+    std::vector<uint32_t> parent_, instance_leaf_;
+    Bounds fixed_bounds_;
+    void index_for_refit();
+    std::vector<Primitive> group_prims(int group) const;
     bool holds(uint32_t solid, const Primitive &p) const;
     bool moves_away_from_enclosure(const Ray &ray) const;
 

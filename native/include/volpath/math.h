@@ -106,6 +106,11 @@ struct Transform {
         return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z, m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
                 m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
     }
+    // The linear part's determinant (negative where the map mirrors).
+    Real determinant3() const {
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    }
     // The inverse of an invertible affine map: the linear part's by cofactors, then the
     // translation taken back through it (each instance needs one: numpy's, per matrix,
     // was most of a large field's load time).

@@ -134,6 +134,14 @@ struct Scene {
     int add_group() { return geometry.add_group(); }
     int add_instance(int group, const Transform &to_world, const Transform &to_local);
     int add_light(const Light &l, uint8_t hidden_from = 0);
+    // An animation's next frame, where the shapes' description changes but not its layout:
+    // instance k moved, a shape group's mesh deformed (Geometry::refit), a shape's BSDF
+    // replaced by the last one added (its new parameters: that one is taken off the end, so
+    // frames do not accumulate BSDFs; a leaf without textures only). build() then redoes
+    // the context, and the BVH only where it changed.
+    void set_instance(int k, const Transform &to_world);
+    void set_group_mesh(int shape, TriangleMesh mesh);
+    void replace_bsdf(int bsdf);
     // Replaces light i, and the rays it is hidden from, by another of its kind (an
     // animation's sun, a lamp edited in the viewport); build() then redoes the context, not
     // the geometry.

@@ -63,11 +63,7 @@ int Geometry::add_mesh(TriangleMesh mesh, int group) {
 
 int Geometry::add_instance(int group, const Transform &to_world, const Transform &to_local) {
     if (group < 0 || group >= group_count_) throw std::out_of_range("invalid shape group");
-    const auto &m = to_world.m;
-    const Real det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-    instances.push_back({group, to_world, to_local, det < 0});
+    instances.push_back({group, to_world, to_local, to_world.determinant3() < 0});
     return int(instances.size()) - 1;
 }
 
@@ -146,32 +142,43 @@ Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
     return bvh;
 }
 
-void Geometry::build() {
-    solid_prim_.assign(shapes.size(), kNoPrim);
-    enclosure_ = kNoPrim;
-    // Each group's BVH first: an instance's bounds are its group's.
-    std::vector<std::vector<Primitive>> prims(size_t(group_count_) + 1);  // the scene's last
+// A group's primitives (or the scene's, group -1): its spheres and boxes, and its meshes'
+// triangles but degenerate ones, which no ray hits.
+std::vector<Geometry::Primitive> Geometry::group_prims(int group) const {
+    std::vector<Primitive> list;
     for (int s = 0; s < int(shapes.size()); ++s) {
-        auto &list = prims[shapes[s].group < 0 ? size_t(group_count_) : size_t(shapes[s].group)];
+        if (shapes[s].group != group) continue;
         if (shapes[s].kind != ShapeGeometry::Kind::Mesh) {
             list.push_back({s, 0});
-        } else {
-            const auto &m = meshes[shapes[s].index];
-            for (uint32_t i = 0; i < m.triangles.size(); ++i) {
-                if (m.area(i) > 0) list.push_back({s, i});  // degenerate triangles never hit
-            }
+            continue;
         }
+        const auto &m = meshes[shapes[s].index];
+        for (uint32_t i = 0; i < m.triangles.size(); ++i)
+            if (m.area(i) > 0) list.push_back({s, i});
     }
+    return list;
+}
+
+void Geometry::build() {
+    // Each group's BVH first: an instance's bounds are its group's.
     groups_.resize(size_t(group_count_));
-    for (int g = 0; g < group_count_; ++g) groups_[size_t(g)] = build_bvh(std::move(prims[size_t(g)]));
+    for (int g = 0; g < group_count_; ++g) groups_[size_t(g)] = build_bvh(group_prims(g));
     group_bounds_.assign(size_t(group_count_), Bounds{});
-    auto &scene_prims = prims.back();
+    std::vector<Primitive> scene_prims = group_prims(-1);
     for (uint32_t k = 0; k < instances.size(); ++k) {
         if (groups_[size_t(instances[k].group)].nodes.empty()) continue;  // an empty group
         scene_prims.push_back({-1, k});
         group_bounds_[size_t(instances[k].group)].extend(primitive_bounds(scene_prims.back()));
     }
     top_ = build_bvh(std::move(scene_prims));
+    moved_.clear(), group_changed_.assign(size_t(group_count_), 0);
+    parent_.clear(), instance_leaf_.clear();
+    find_solids();
+}
+
+void Geometry::find_solids() {
+    solid_prim_.assign(shapes.size(), kNoPrim);
+    enclosure_ = kNoPrim;
     if (top_.prims.empty()) return;
     auto solid = [&](uint32_t i) {
         return top_.kind[i] == ShapeGeometry::Kind::Sphere || top_.kind[i] == ShapeGeometry::Kind::Box;
@@ -194,6 +201,79 @@ void Geometry::build() {
     for (uint32_t i = 0; i < top_.prims.size() && enclosure_ != kNoPrim; ++i) {
         if (i != enclosure_ && !holds(enclosure_, top_.prims[i])) enclosure_ = kNoPrim;
     }
+}
+
+void Geometry::set_instance(int k, const Transform &to_world, const Transform &to_local) {
+    if (k < 0 || size_t(k) >= instances.size()) throw std::out_of_range("invalid instance");
+    Instance &inst = instances[size_t(k)];
+    inst.to_world = to_world, inst.to_local = to_local;
+    inst.mirrored = to_world.determinant3() < 0;
+    moved_.push_back(uint32_t(k));
+}
+
+void Geometry::set_group_mesh(int shape, TriangleMesh mesh) {
+    if (shape < 0 || size_t(shape) >= shapes.size() || shapes[size_t(shape)].kind != ShapeGeometry::Kind::Mesh ||
+        shapes[size_t(shape)].group < 0)
+        throw std::invalid_argument("only a shape group's mesh can be replaced");
+    meshes[size_t(shapes[size_t(shape)].index)] = std::move(mesh);
+    group_changed_.resize(size_t(group_count_), 0);
+    group_changed_[size_t(shapes[size_t(shape)].group)] = 1;
+}
+
+void Geometry::index_for_refit() {
+    parent_.assign(top_.nodes.size(), kNoPrim);
+    instance_leaf_.assign(instances.size(), kNoPrim);
+    fixed_bounds_ = Bounds{};
+    for (uint32_t n = 0; n < top_.nodes.size(); ++n) {
+        const Node &node = top_.nodes[n];
+        if (node.count == 0) {
+            parent_[n + 1] = parent_[node.first] = n;
+            continue;
+        }
+        for (uint32_t j = node.first; j < node.first + node.count; ++j) {
+            if (top_.prims[j].shape < 0)
+                instance_leaf_[top_.prims[j].index] = n;
+            else
+                fixed_bounds_.extend(primitive_bounds(top_.prims[j]));
+        }
+    }
+}
+
+void Geometry::refit() {
+    for (int g = 0; g < int(group_changed_.size()); ++g) {
+        if (!group_changed_[size_t(g)]) continue;
+        groups_[size_t(g)] = build_bvh(group_prims(g));
+        for (uint32_t k = 0; k < instances.size(); ++k)
+            if (instances[k].group == g) moved_.push_back(k);
+    }
+    if (moved_.empty()) return;
+    if (parent_.empty()) index_for_refit();
+    for (uint32_t k : moved_) {
+        // A group emptied or filled changes which instances are primitives: build anew.
+        if (instance_leaf_[k] == kNoPrim || groups_[size_t(instances[k].group)].nodes.empty()) return build();
+    }
+    // An instance has a leaf of its own (build_recursive), whose bounds are its own.
+    for (uint32_t k : moved_) {
+        const Bounds b = primitive_bounds({-1, k});
+        uint32_t n = instance_leaf_[k];
+        float *nb = top_.nodes[n].bounds;
+        for (int a = 0; a < 3; ++a) nb[a] = rounded_down(b.lo[a]), nb[3 + a] = rounded_up(b.hi[a]);
+        for (n = parent_[n]; n != kNoPrim; n = parent_[n]) {
+            const float *l = top_.nodes[n + 1].bounds, *r = top_.nodes[top_.nodes[n].first].bounds;
+            float *out = top_.nodes[n].bounds;
+            for (int a = 0; a < 3; ++a) out[a] = std::min(l[a], r[a]), out[3 + a] = std::max(l[3 + a], r[3 + a]);
+        }
+    }
+    moved_.clear(), group_changed_.assign(size_t(group_count_), 0);
+    top_.bounds = fixed_bounds_;
+    group_bounds_.assign(size_t(group_count_), Bounds{});
+    for (uint32_t k = 0; k < instances.size(); ++k) {
+        if (instance_leaf_[k] == kNoPrim) continue;
+        const Bounds b = primitive_bounds({-1, k});
+        top_.bounds.extend(b);
+        group_bounds_[size_t(instances[k].group)].extend(b);
+    }
+    find_solids();
 }
 
 // Whether the sphere or box `solid` (into top_.prims) holds all of primitive p: its points

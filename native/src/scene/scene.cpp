@@ -91,6 +91,14 @@ void check_info(const Scene &s, const ShapeInfo &info) {
     if (info.bsdf < 0) throw std::invalid_argument("a shape needs a bsdf");
 }
 
+void check_mesh(const TriangleMesh &mesh) {
+    for (const auto &t : mesh.triangles)
+        for (uint32_t v : t)
+            if (v >= mesh.positions.size()) throw std::out_of_range("triangle index out of range");
+    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
+        throw std::invalid_argument("need one normal per vertex");
+}
+
 AreaLight area_light(int shape, const AreaEmission &e) {
     if (!(e.spread > 0 && e.spread <= kPi)) throw std::invalid_argument("an area light's spread must be in (0, pi]");
     AreaLight light{shape, e.radiance};
@@ -103,11 +111,7 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const AreaEm
     check_info(*this, info);
     if (group >= 0 && (emission || info.medium_interface))
         throw std::invalid_argument("a shape group's shapes can neither emit nor bound a medium");
-    for (const auto &t : mesh.triangles)
-        for (uint32_t v : t)
-            if (v >= mesh.positions.size()) throw std::out_of_range("triangle index out of range");
-    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
-        throw std::invalid_argument("need one normal per vertex");
+    check_mesh(mesh);
     geometry_built = false;
     const int id = geometry.add_mesh(std::move(mesh), group);
     shapes.push_back(info);
@@ -246,8 +250,32 @@ void build_sky_maps(const Scene &scene, const RenderContext *previous, RenderCon
 
 }  // namespace
 
+void Scene::set_instance(int k, const Transform &to_world) {
+    geometry.set_instance(k, to_world, to_world.inverse());
+    built = false;
+}
+
+void Scene::set_group_mesh(int shape, TriangleMesh mesh) {
+    check_mesh(mesh);
+    geometry.set_group_mesh(shape, std::move(mesh));
+    built = false;
+}
+
+void Scene::replace_bsdf(int bsdf) {
+    if (bsdf < 0 || size_t(bsdf) + 1 >= bsdfs.size()) throw std::out_of_range("invalid bsdf");
+    const BSDF &added = bsdfs.back();
+    if (is_layered(added) || !added.textured.empty() || is_layered(bsdfs[size_t(bsdf)]))
+        throw std::invalid_argument("only a leaf BSDF without textures is replaced in place");
+    bsdfs[size_t(bsdf)] = added;
+    bsdfs.pop_back();
+    built = false;
+}
+
 void Scene::build() {
-    if (!geometry_built) geometry.build();
+    if (!geometry_built)
+        geometry.build();
+    else
+        geometry.refit();
     geometry_built = true;
     for (Light &l : lights) prepare_light(l, geometry);
     RenderContext c;
