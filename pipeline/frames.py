@@ -1,6 +1,6 @@
-"""Frames of an exported animation: one scene plus, per frame, the camera, the lamps and the
-grids of VDB sequences (what Blender evaluated at that frame), and whole scenes for the
-frames where more changed.
+"""Frames of an exported animation: one scene plus, per frame, the camera, the lamps, the
+grids of VDB sequences (what Blender evaluated at that frame) and the scene entries that
+anything else animated changes.
 
 An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
 ``animation.json``::
@@ -8,8 +8,10 @@ An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
     {"suns": {"<scene key>": "<Blender object>"}, "lamps": {"<scene key>": "<Blender object>"},
      "frames": [{"frame": 1, "suns": {"<Blender object>": [x, y, z]},
                  "lamps": {"<Blender object>": {emitter}}, "camera": 4x4,
-                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}}}, ...],
-     "animated": [{"what": "mesh 'Cube'", "changes": "placement", "from_frame": 2}, ...]}
+                 "volumes": {"<scene key>": {"to_world": 4x4, "density": {volume}}},
+                 "updates": "updates_0001.xml"}, ...],
+     "animated": [{"what": "mesh 'Cube'", "changes": "placement", "from_frame": 2}, ...],
+     "instanced": ["Cube"]}
 
 ``suns``: the scene's sun emitters and the Sun lamps they came from; per frame, each lamp's
 direction (where its light travels, in scene coordinates) and the camera's ``to_world``
@@ -17,10 +19,14 @@ direction (where its light travels, in scene coordinates) and the camera's ``to_
 frame holding the emitter as Blender evaluates the lamp there (power, colour, position,
 direction). ``volumes`` only for VDB sequences: their grids at that frame, as scene-language
 volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting volume's radiance
-written sparse by volpath.xml_writer). ``animated``: what else the export found animated (what, what
-changes, from which frame); each frame where any of it differs from the first is exported
-whole beside the first, its entry naming that file (``"scene": "scene_0005.xml"``), and
-rendered from it.
+written sparse by volpath.xml_writer). ``animated``: what else the export found animated
+(what, what changes, from which frame); a frame where any of it differs from the first
+names ``updates``, a scene file holding the top-level entries of scene.xml that differ at
+that frame (an instance's map, a group's deformed mesh, a shape's material, the world, a
+lamp), which replace scene.xml's; or, where objects appear or vanish, ``scene``, the whole
+frame's scene file. ``instanced``: the objects exported as instances of a group of their
+own because they move or deform. A worker applies a frame's changes to the scene it holds
+(volpath's Scene.update: in place where it can, else the frame's scene is built anew).
 
 The Blender add-on writes the directory (``addon/export/animation.py``). ``render_frame``
 is what a worker runs (a local process or a Dask worker): it needs volpath only, never
@@ -145,6 +151,14 @@ def _whole_frame(directory, filename):
     return load_dict(_read_scene(directory, filename), base_dir=directory, source=os.path.join(directory, filename))
 
 
+def _with_updates(d, directory, entry):
+    """The scene dictionary with the frame's updates file's entries in place of its own."""
+    if "updates" not in entry:
+        return d
+    updates = _read_scene(directory, entry["updates"])
+    return {**d, **{k: v for k, v in updates.items() if k != "type" and not k.startswith("__")}}
+
+
 def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, target_error=None, denoise=False):
     """Render one frame; returns (image, metadata). The seed defaults to the frame number,
     so a frame is the same bits wherever and however often it is rendered. With
@@ -158,14 +172,16 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, tar
         raise SceneError(f"frame {frame} is not in the exported animation")
     entry = entries[0]
     start = time.perf_counter()
-    if "scene" in entry:  # exported whole: what changes there is more than updates follow
+    built = True
+    if "scene" in entry:  # exported whole: objects appear or vanish
         scene = _whole_frame(directory, entry["scene"])
     else:
-        # A worker builds the scene once; the frames after it move the camera and the lamps
-        # (Scene.update), unless more changes (a VDB sequence's grids).
-        frame_d = frame_dictionary(d, animation, entry)
+        # A worker builds the scene once; the frames after it change it in place
+        # (Scene.update), unless more changes than it can (a VDB sequence's grids).
+        frame_d = frame_dictionary(_with_updates(d, directory, entry), animation, entry)
         scene = _scenes.get(directory)
-        if scene is None or not scene.update(frame_d):
+        built = scene is None or not scene.update(frame_d)
+        if built:
             scene = _scenes[directory] = load_dict(frame_d, base_dir=directory)
     scene.source = f"frame {frame}"
     image = render(
@@ -190,6 +206,7 @@ def render_frame(source, frame, spp, tracer="auto", seed=None, threads=None, tar
         "negative_samples": int(stats["negative_samples"]),
         "volpath_version": __version__,
         "denoised": int(bool(denoise)),
+        "scene_built": int(built),  # 0: the worker's scene updated in place
     }
     if target_error is not None:
         metadata.update(

@@ -109,8 +109,8 @@ class Run:
         summary = {
             "options": asdict(self.options),
             "frames": {str(f): self.status[f] for f in self.frames if f in self.status},
-            # What the export found animated besides the camera, lamps and VDB sequences, whose
-            # frames it exported whole (addon/export/animation.py).
+            # What the export found animated besides the camera, lamps and VDB sequences
+            # (addon/export/animation.py); the contact sheet's caption says it too.
             "animated": self._animation().get("animated", []),
             **extra,
         }
@@ -270,7 +270,8 @@ class Run:
         step = max(1, len(pictures) // 24)  # at most about 24 frames on the sheet
         labels = [self._label(f) for f in finished[::step]]
         video.write_png(
-            os.path.join(self.out_dir, "contact_sheet.png"), video.contact_sheet(pictures[::step], labels=labels)
+            os.path.join(self.out_dir, "contact_sheet.png"),
+            video.contact_sheet(pictures[::step], labels=labels, caption=self._caption()),
         )
         mp4 = video.encode(
             os.path.join(png_dir, "%05d.png"), os.path.join(self.out_dir, self.options.video_name), fps=self.options.fps
@@ -285,6 +286,14 @@ class Run:
         status = self.status.get(frame, {})
         parts = [str(frame)] + ([f"{status['error']:.3f}"] if "error" in status else [])
         return " ".join(parts + ([f"{status['seconds']:.0f}s"] if "seconds" in status else []))
+
+    def _caption(self):
+        """The contact sheet's caption: what the animation animates besides the camera, the
+        lamps and VDB sequences, or None."""
+        animated = self._animation().get("animated", [])
+        if not animated:
+            return None
+        return "animated: " + "; ".join(f"{a['what']} ({a['changes']} from frame {a['from_frame']})" for a in animated)
 
     def execute(self):
         """Render, then the pictures and the video; returns the summary."""

@@ -5,6 +5,7 @@ import os
 import shutil
 import struct
 import subprocess
+import textwrap
 import zlib
 
 import numpy as np
@@ -62,21 +63,75 @@ _GLYPHS = {
     ".": (0, 0, 0, 0, 2),
     "s": (0, 3, 6, 3, 6),
     " ": (0, 0, 0, 0, 0),
+    # Capitals and punctuation, for the contact sheet's caption.
+    "A": (2, 5, 7, 5, 5),
+    "B": (6, 5, 6, 5, 6),
+    "C": (3, 4, 4, 4, 3),
+    "D": (6, 5, 5, 5, 6),
+    "E": (7, 4, 6, 4, 7),
+    "F": (7, 4, 6, 4, 4),
+    "G": (3, 4, 5, 5, 3),
+    "H": (5, 5, 7, 5, 5),
+    "I": (7, 2, 2, 2, 7),
+    "J": (1, 1, 1, 5, 2),
+    "K": (5, 5, 6, 5, 5),
+    "L": (4, 4, 4, 4, 7),
+    "M": (5, 7, 7, 5, 5),
+    "N": (6, 5, 5, 5, 5),
+    "O": (2, 5, 5, 5, 2),
+    "P": (6, 5, 6, 4, 4),
+    "Q": (2, 5, 5, 6, 3),
+    "R": (6, 5, 6, 5, 5),
+    "S": (3, 4, 2, 1, 6),
+    "T": (7, 2, 2, 2, 2),
+    "U": (5, 5, 5, 5, 7),
+    "V": (5, 5, 5, 5, 2),
+    "W": (5, 5, 7, 7, 5),
+    "X": (5, 5, 2, 5, 5),
+    "Y": (5, 5, 2, 2, 2),
+    "Z": (7, 1, 2, 4, 7),
+    "'": (2, 2, 0, 0, 0),
+    "(": (1, 2, 2, 2, 1),
+    ")": (4, 2, 2, 2, 4),
+    ",": (0, 0, 0, 2, 4),
+    "-": (0, 0, 7, 0, 0),
+    ":": (0, 2, 0, 2, 0),
+    ";": (0, 2, 0, 2, 4),
+    "_": (0, 0, 0, 0, 7),
+    "/": (1, 1, 2, 4, 4),
 }
+
+
+def _bitmap(text, scale):
+    """``text`` as a 0/1 bitmap, a blank pixel around it (characters without a glyph are blanks)."""
+    # Four columns a character: its three, then a blank one.
+    glyphs = [_GLYPHS.get(c, _GLYPHS[" "]) for c in text]
+    rows = np.array([[(g[r] << 1 >> (3 - b)) & 1 for g in glyphs for b in range(4)] for r in range(5)], np.uint8)
+    return np.kron(np.pad(rows, 1), np.ones((scale, scale), np.uint8))
 
 
 def label(picture, text, scale=1):
     """``text`` (digits, '.', 's', spaces) in white on black at the picture's bottom left."""
-    # Four columns a character: its three, then a blank one.
-    rows = np.array([[(_GLYPHS[c][r] << 1 >> (3 - b)) & 1 for c in text for b in range(4)] for r in range(5)], np.uint8)
-    glyphs = np.kron(np.pad(rows, 1), np.ones((scale, scale), np.uint8))
+    glyphs = _bitmap(text, scale)
     h, w = min(glyphs.shape[0], picture.shape[0]), min(glyphs.shape[1], picture.shape[1])
     picture[-h:, :w] = glyphs[-h:, :w, None] * 255
     return picture
 
 
-def contact_sheet(images, columns=6, labels=None):
-    """Tone-mapped frames side by side, in rows of ``columns``, each with its label if given."""
+def caption_band(width, text, scale=1):
+    """A black band ``width`` pixels wide with ``text`` in white capitals, wrapped at spaces."""
+    lines = textwrap.wrap(text.upper(), max(1, (width // scale - 2) // 4)) or [""]
+    line_height = 7 * scale
+    band = np.zeros((len(lines) * line_height, width, 3), np.uint8)
+    for i, line in enumerate(lines):
+        glyphs = _bitmap(line, scale)[:, :width]
+        band[i * line_height : i * line_height + glyphs.shape[0], : glyphs.shape[1]] = glyphs[..., None] * 255
+    return band
+
+
+def contact_sheet(images, columns=6, labels=None, caption=None):
+    """Tone-mapped frames side by side, in rows of ``columns``, each with its label if given;
+    ``caption``, a line of words under them (what the animation animates)."""
     if not images:
         raise ValueError("no frames for a contact sheet")
     h, w, _ = images[0].shape
@@ -89,6 +144,8 @@ def contact_sheet(images, columns=6, labels=None):
         if labels is not None:
             label(tile, labels[i], scale=max(1, h // 90))
         sheet[r * h : (r + 1) * h, c * w : (c + 1) * w] = tile
+    if caption:
+        sheet = np.concatenate([sheet, caption_band(sheet.shape[1], caption, scale=max(1, h // 90))])
     return sheet
 
 

@@ -29,18 +29,29 @@ def write_scene(d, directory, filename="scene.xml", by_content=False):
     ``by_content``: meshes' and texels' files are named by what they hold, and written only
     where no file of that name is there yet, so that scenes written side by side (an
     animation's frames) share the files that stay the same."""
+    return write_entries(scene_entries(d, directory, by_content), directory, filename)
+
+
+def scene_entries(d, directory, by_content=False, digests=None):
+    """{key: XML text} of the scene dictionary's top-level entries, their files written
+    into ``directory`` (see write_scene). With ``by_content``, equal texts say the same.
+    ``digests``: a dictionary kept between calls, where the content digests of arrays that
+    stay the same objects (an animation's unchanged meshes) are computed once."""
     os.makedirs(directory, exist_ok=True)
-    writer = _Writer(directory, by_content)
-    lines = ['<scene version="3.0.0">']
-    for key, value in d.items():
-        if key == "type" or key.startswith("__"):
-            continue
-        lines += writer.entry(key, value, 1, top=True)
-    lines.append("</scene>")
+    writer = _Writer(directory, by_content, {} if digests is None else digests)
+    return {
+        key: "\n".join(writer.entry(key, value, 1, top=True))
+        for key, value in d.items()
+        if key != "type" and not key.startswith("__")
+    }
+
+
+def write_entries(entries, directory, filename):
+    """A scene file of XML entries (scene_entries'), written whole or not at all; its path."""
     path = os.path.join(directory, filename)
     tmp = path + ".tmp"
     with open(tmp, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines) + "\n")
+        f.write("\n".join(['<scene version="3.0.0">', *entries.values(), "</scene>"]) + "\n")
     os.replace(tmp, path)
     return path
 
@@ -84,9 +95,10 @@ def _num(v):
 
 
 class _Writer:
-    def __init__(self, directory, by_content=False):
+    def __init__(self, directory, by_content, digests):
         self.directory = directory
         self.by_content = by_content
+        self.digests = digests  # id(array) -> (array, digest): the array kept, so its id is not reused
         self.files = set()
 
     def asset(self, folder, name, ext, arrays=()):
@@ -97,15 +109,21 @@ class _Writer:
             digest = hashlib.sha256()
             for a in arrays:
                 if a is not None:
-                    a = np.ascontiguousarray(a)
-                    digest.update(f"{a.dtype}{a.shape}".encode())
-                    digest.update(a.tobytes())
+                    digest.update(self.digest(a))
             return f"{folder}/{stem}_{digest.hexdigest()[:16]}.{ext}"
         rel, i = f"{folder}/{stem}.{ext}", 1
         while rel in self.files:
             rel, i = f"{folder}/{stem}_{i}.{ext}", i + 1
         self.files.add(rel)
         return rel
+
+    def digest(self, a):
+        if id(a) not in self.digests or self.digests[id(a)][0] is not a:
+            c = np.ascontiguousarray(a)
+            h = hashlib.sha256(f"{c.dtype}{c.shape}".encode())
+            h.update(c.tobytes())
+            self.digests[id(a)] = a, h.digest()
+        return self.digests[id(a)][1]
 
     def write(self, rel, write):
         """write(path) makes the file at rel; by content, only where it is not there yet, and

@@ -53,10 +53,15 @@ class Exported:
 _CONVERTIBLE = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
 
-def export_scene(depsgraph, mesh_cache=None):
+def export_scene(depsgraph, mesh_cache=None, instanced=(), final=False):
     """The evaluated depsgraph (modifiers, instances, the current frame) as a scene.
-    ``mesh_cache``: a dictionary kept between exports (the viewport's) whose meshes'
-    triangles are reused; drop_meshes() forgets those whose geometry changed."""
+    ``mesh_cache``: a dictionary kept between exports (the viewport's, an animation's) whose
+    meshes' triangles are reused; drop_meshes() forgets those whose geometry changed.
+    ``instanced``: names of objects placed as an instance of a group of their own even
+    where nothing shares their mesh (an animation's moving and deforming objects: a frame
+    moves the instance, or replaces the group's mesh, without rebuilding the rest).
+    ``final``: objects disabled in renders are left out even where the depsgraph is the
+    viewport's (an animation exported outside F12 renders what F12 would)."""
     scene = depsgraph.scene
     settings = scene.volpath
     report = Report()
@@ -100,6 +105,8 @@ def export_scene(depsgraph, mesh_cache=None):
 
     for inst in depsgraph.object_instances:
         obj = inst.object
+        if final and not shown_in_render(inst.parent if inst.is_instance else obj):
+            continue
         if obj.type == "LIGHT":
             entry = lights.export(obj, inst.matrix_world, report)
             if entry is not None:
@@ -121,7 +128,14 @@ def export_scene(depsgraph, mesh_cache=None):
                     sequences[k] = obj.original.name
         elif obj.type not in ("CAMERA", "EMPTY", "ARMATURE", "LIGHT_PROBE", "SPEAKER", "LATTICE"):
             report.warn(f"object '{obj.name}': {obj.type.lower()} objects are not supported (skipped)")
-    return Exported(_place_meshes(d), report, suns, lamps, sequences)
+    return Exported(_place_meshes(d, set(instanced)), report, suns, lamps, sequences)
+
+
+def shown_in_render(obj):
+    """Whether an object renders: neither it nor a collection it is in is disabled in renders
+    (the render depsgraph leaves those out; a viewport's keeps them)."""
+    obj = obj.original
+    return not obj.hide_render and not any(c.hide_render for c in obj.users_collection)
 
 
 def _unique(name, taken):
@@ -132,24 +146,26 @@ def _unique(name, taken):
 
 
 class _Placed:
-    """One object instance's mesh shapes (object space), its map, and what it shares with
-    other instances of the same mesh: ``key`` (the mesh datablock, its materials and ray
-    visibility), or None where it cannot be instanced (it emits or holds a medium)."""
+    """One object instance's mesh shapes (object space), its map, the Blender object's
+    name, and what it shares with other instances of the same mesh: ``key`` (the mesh
+    datablock, its materials and ray visibility), or None where it cannot be instanced (it
+    emits or holds a medium)."""
 
-    def __init__(self, key, parts, to_world):
-        self.key, self.parts, self.to_world = key, parts, to_world
+    def __init__(self, key, parts, to_world, name):
+        self.key, self.parts, self.to_world, self.name = key, parts, to_world, name
 
 
-def _place_meshes(d):
+def _place_meshes(d, instanced):
     """The scene with each mesh object in place: meshes that several object instances share
-    (linked duplicates, collection, particle and geometry-node instances) as one shapegroup
-    and an instance per object; the others as world-placed shapes, one per material."""
+    (linked duplicates, collection, particle and geometry-node instances), and the objects
+    named in ``instanced``, as one shapegroup and an instance per object; the others as
+    world-placed shapes, one per material."""
     counts = Counter(v.key for v in d.values() if isinstance(v, _Placed) and v.key is not None)
     out, groups = {}, {}
     for k, v in d.items():
         if not isinstance(v, _Placed):
             out[k] = v
-        elif counts[v.key] > 1:
+        elif counts[v.key] > 1 or (v.key is not None and v.name in instanced):
             if v.key not in groups:
                 groups[v.key] = _unique(f"{v.key[0][0]}.group", d.keys() | out.keys())
                 group = out[groups[v.key]] = {"type": "shapegroup"}
@@ -234,7 +250,9 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
         shared &= mat.radiance is None and interior is None
         shapes.append((m.name if m else str(index), shape))
         names.append(m.name if m else None)
-    return _Placed((key, tuple(names), hidden) if shared else None, shapes, convert.matrix(inst.matrix_world))
+    return _Placed(
+        (key, tuple(names), hidden) if shared else None, shapes, convert.matrix(inst.matrix_world), obj.original.name
+    )
 
 
 def write_directory(exported, directory, filename="scene.xml", by_content=False):

@@ -1,9 +1,13 @@
-"""A Blender animation as an animation directory: the scene once, and per frame what moves,
-evaluated by Blender itself (``frame_set``), so that fcurves, drivers and constraints
-count: the camera, the lamps and VDB sequences as updates of the first frame's scene, and
-whole scenes for the frames where anything else animated differs from the first. The
-pipeline renders such a directory frame by frame without Blender (``pipeline.frames``,
-where the directory's format is described).
+"""A Blender animation as an animation directory: the scene once, and per frame what
+changes, evaluated by Blender itself (``frame_set``), so that fcurves, drivers and
+constraints count. The camera, the point and sun lamps and VDB sequences are updated from
+animation.json; anything else animated (objects moving or deforming, materials, the world,
+lamp and camera settings, instances) is found by comparing each frame with the first, and
+the scene entries it changes are written per frame (updates_NNNN.xml), which a worker
+applies to its loaded scene in place where it can (volpath's Scene.update). Objects that
+move or deform are exported as instances of a group of their own, so that their motion
+refits the BVH instead of rebuilding it. The pipeline renders such a directory frame by
+frame without Blender (``pipeline.frames``, where the directory's format is described).
 """
 
 import json
@@ -11,9 +15,9 @@ import os
 
 import numpy as np
 
-from pipeline.frames import ANIMATION_FILE
+from pipeline.frames import ANIMATION_FILE, SCENE_FILE
 
-from . import ExportError, camera, export_scene, export_volume, lights, write_directory
+from . import ExportError, camera, drop_meshes, export_scene, export_volume, lights, shown_in_render
 
 
 def frame_list(scene, frames=None, step=None):
@@ -28,29 +32,37 @@ def frame_list(scene, frames=None, step=None):
 
 def export_animation(scene, frames, directory):
     """Write scene.xml (+ meshes, volumes) at the first of ``frames``, animation.json for all
-    of them, and scene_NNNN.xml for each frame where more changes than the frame-by-frame
-    updates follow (see _per_frame) into ``directory``; returns the export's warnings."""
-    import bpy
+    of them, and for each frame where more changes than animation.json follows, the scene
+    entries that change (updates_NNNN.xml), or where objects appear or vanish the whole
+    scene (scene_NNNN.xml), into ``directory``; returns the export's warnings."""
+    from volpath.xml_writer import write_entries
 
+    scan = _scan(scene, frames)
+    moving = scan.objects("placement", "shape")
+    caches, warnings = {"meshes": {}, "digests": {}}, []
     current = scene.frame_current
-    scene.frame_set(frames[0])
     try:
-        exported = export_scene(bpy.context.evaluated_depsgraph_get())
+        first, exported = _frame_entries(scene, frames[0], directory, moving, caches, warnings)
+        whole = _changed_frames(scene, scan, first, directory, moving, caches, warnings)
     finally:
         scene.frame_set(current)
-    write_directory(exported, directory, by_content=True)
-    per_frame, animated, whole = _per_frame(scene, frames, exported)
-    animation = {"suns": exported.suns, "lamps": exported.lamps, "frames": per_frame, "animated": animated}
-    warnings = list(exported.warnings)
-    if animated:
+    write_entries(first, directory, SCENE_FILE)
+    animation = {
+        "suns": exported.suns,
+        "lamps": exported.lamps,
+        "frames": scan.frames,
+        "animated": scan.animated,
+        "instanced": sorted(moving),
+    }
+    if scan.changed:
         warnings.append(
-            f"{len(whole)} of {len(frames)} frames exported whole, for what the pipeline does not yet update "
-            "frame by frame (slower: an export and a scene load each): "
-            + "; ".join(f"{a['what']} ({a['changes']}, from frame {a['from_frame']})" for a in animated)
+            "animated besides the camera, point and sun lamps and VDB sequences: "
+            + "; ".join(f"{a['what']} ({a['changes']}, from frame {a['from_frame']})" for a in scan.animated)
+            + f"; {len(scan.changed_frames) - len(whole)} frames are updates of the first"
+            + (f", {len(whole)} exported whole (objects appear or vanish)" if whole else "")
         )
-        warnings += _whole_frames(scene, [e for e in per_frame if e["frame"] in whole], directory, warnings)
     if exported.sequences:
-        _volume_sequences(scene, exported.sequences, [e for e in per_frame if "scene" not in e], directory)
+        _volume_sequences(scene, exported.sequences, [e for e in scan.frames if "scene" not in e], directory)
     tmp = os.path.join(directory, ANIMATION_FILE + ".tmp")
     with open(tmp, "w", encoding="utf-8") as f:
         json.dump(animation, f, indent=1)
@@ -58,34 +70,59 @@ def export_animation(scene, frames, directory):
     return warnings
 
 
-def _per_frame(scene, frames, exported):
-    """Per frame, what the pipeline updates frame by frame: the direction of every Sun lamp,
-    the point and sun lamps' emitters (Exported.lamps) and the camera's to_world. Then what
-    else changes over `frames`, found by comparing what Blender evaluates at each frame with
-    the first: [{"what", "changes", "from_frame"}], and the frames where anything of it
-    differs from the first, which are exported whole (_whole_frames)."""
+class _Scan:
+    """One pass over the frames (_scan): ``frames``, animation.json's per-frame entries (sun
+    directions, followed lamps, the camera); ``changed``, {(what, changes): the first frame
+    where it differs from the first}, for what animation.json does not follow; ``names``,
+    {what: Blender object}; ``changed_frames``, those where anything of it differs."""
+
+    def __init__(self):
+        self.frames, self.changed, self.names, self.changed_frames = [], {}, {}, set()
+
+    @property
+    def animated(self):
+        """animation.json's "animated": what changes, how, from which frame."""
+        return [{"what": w, "changes": c, "from_frame": f} for (w, c), f in sorted(self.changed.items())]
+
+    def objects(self, *changes):
+        """The Blender objects whose `changes` (placement, shape) animate."""
+        return {self.names[w] for (w, c) in self.changed if c in changes and w in self.names}
+
+
+def _followed(scene):
+    """The objects animation.json follows frame by frame: point and sun lamps, VDB sequences."""
+    return {
+        o.name
+        for o in scene.objects
+        if (o.type == "LIGHT" and o.data.type.lower() in lights.FOLLOWED) or (o.type == "VOLUME" and o.data.is_sequence)
+    }
+
+
+def _scan(scene, frames):
+    """Per frame, the direction of every Sun lamp, the point and sun lamps' emitters and the
+    camera's to_world; and what else changes over `frames`, found by comparing what Blender
+    evaluates at each frame with the first (_unfollowed_state)."""
     import bpy
 
     from . import Report
 
-    followed = {*exported.lamps.values(), *exported.sequences.values()}
+    followed, scan, first = _followed(scene), _Scan(), None
     current = scene.frame_current
-    out, first, changed, whole = [], None, {}, set()
     try:
         for f in frames:
             scene.frame_set(f)
             depsgraph = bpy.context.evaluated_depsgraph_get()
-            suns = {
-                o.name: lights.sun_direction(o.evaluated_get(depsgraph)).tolist()
-                for o in scene.objects
-                if o.type == "LIGHT" and o.data.type == "SUN"
-            }
+            suns, lamps = {}, {}
+            for o in scene.objects:
+                if o.type == "LIGHT" and o.name in followed:
+                    ob = o.evaluated_get(depsgraph)
+                    if o.data.type == "SUN":
+                        suns[o.name] = lights.sun_direction(ob).tolist()
+                    lamp = lights.export(ob, ob.matrix_world, Report())
+                    if lamp is not None:
+                        lamps[o.name] = _jsonable(lamp)
             cam = scene.camera.evaluated_get(depsgraph) if scene.camera else None
-            lamps = {}
-            for name in exported.lamps.values():
-                lamp = bpy.data.objects[name].evaluated_get(depsgraph)
-                lamps[name] = _jsonable(lights.export(lamp, lamp.matrix_world, Report()))
-            out.append(
+            scan.frames.append(
                 {
                     "frame": f,
                     "suns": suns,
@@ -93,37 +130,58 @@ def _per_frame(scene, frames, exported):
                     "camera": camera.to_world(cam).tolist() if cam is not None else None,
                 }
             )
-            state = _unfollowed_state(scene, depsgraph, followed)
+            state = _unfollowed_state(scene, depsgraph, followed, scan.names)
             if first is None:
                 first = state
                 continue
             for key in first.keys() | state.keys():
                 if key not in state or key not in first or not _same(first[key], state[key]):
-                    changed.setdefault(key, f)
-                    whole.add(f)
+                    scan.changed.setdefault(key, f)
+                    scan.changed_frames.add(f)
     finally:
         scene.frame_set(current)
-    animated = [{"what": what, "changes": changes, "from_frame": f} for (what, changes), f in sorted(changed.items())]
-    return out, animated, whole
+    return scan
 
 
-def _whole_frames(scene, entries, directory, known):
-    """Each entry's frame exported whole beside the first (scene_NNNN.xml, sharing the files
-    that stay the same), named in its "scene"; returns the warnings not in `known`."""
+def _frame_entries(scene, frame, directory, moving, caches, warnings):
+    """The scene at `frame` as XML entries ({key: text}, xml_writer.scene_entries), its
+    files written into `directory` by content; objects in `moving` as instances. `caches`:
+    the meshes' triangles and the arrays' digests, kept from frame to frame. Returns the
+    entries and the Exported; its warnings not yet in `warnings` are added."""
     import bpy
 
-    current = scene.frame_current
-    warnings = []
-    try:
-        for entry in entries:
-            scene.frame_set(entry["frame"])
-            exported = export_scene(bpy.context.evaluated_depsgraph_get())
-            entry["scene"] = f"scene_{entry['frame']:04d}.xml"
-            write_directory(exported, directory, entry["scene"], by_content=True)
-            warnings += [w for w in exported.warnings if w not in known and w not in warnings]
-    finally:
-        scene.frame_set(current)
-    return warnings
+    from volpath.xml_writer import scene_entries
+
+    scene.frame_set(frame)  # (export_animation sets the current frame back once)
+    exported = export_scene(bpy.context.evaluated_depsgraph_get(), caches["meshes"], instanced=moving, final=True)
+    warnings += [w for w in exported.warnings if w not in warnings]
+    return scene_entries(exported.scene, directory, by_content=True, digests=caches["digests"]), exported
+
+
+def _changed_frames(scene, scan, first, directory, moving, caches, warnings):
+    """Each changed frame's entries that differ from the `first` frame's, as updates_NNNN.xml
+    named in its animation.json entry ("updates"); a frame whose entries are not the first's
+    (objects appear or vanish) whole, as scene_NNNN.xml ("scene"). Returns the whole frames."""
+    import bpy
+
+    from volpath.xml_writer import write_entries
+
+    deforming = [bpy.data.objects[name] for name in scan.objects("shape")]
+    whole = []
+    for entry in scan.frames:
+        f = entry["frame"]
+        if f not in scan.changed_frames:
+            continue
+        drop_meshes(caches["meshes"], deforming)
+        entries, _ = _frame_entries(scene, f, directory, moving, caches, warnings)
+        if entries.keys() != first.keys():
+            entry["scene"] = f"scene_{f:04d}.xml"
+            write_entries(entries, directory, entry["scene"])
+            whole.append(f)
+        else:
+            entry["updates"] = f"updates_{f:04d}.xml"
+            write_entries({k: v for k, v in entries.items() if v != first[k]}, directory, entry["updates"])
+    return whole
 
 
 def _jsonable(entry):
@@ -151,15 +209,18 @@ LIGHT_SETTINGS = ("energy", "color", "shadow_soft_size", "spot_size", "spot_blen
 CAMERA_SETTINGS = ("lens", "sensor_width", "sensor_height", "shift_x", "shift_y", "clip_start", "clip_end")
 
 
-def _unfollowed_state(scene, depsgraph, followed):
-    """{(what, changes): values} at the current frame for everything the pipeline exports once:
-    objects' placements (all but the camera's, the followed lamps' and VDB sequences'; a sun's
-    has no effect), other lamps' and the camera's settings, deformed meshes, instances'
-    placements, material and world node values."""
+def _unfollowed_state(scene, depsgraph, followed, names):
+    """{(what, changes): values} at the current frame for everything animation.json does not
+    follow: objects' placements (all but the camera's, the followed lamps' and VDB
+    sequences'; a sun's has no effect), other lamps' and the camera's settings, deformed
+    meshes, instances' placements, material and world node values, which objects render.
+    ``names``: {what:
+    Blender object}, filled in."""
     state = {}
     for obj in scene.objects:
         ob = obj.evaluated_get(depsgraph)
         what = f"{obj.type.lower()} '{obj.name}'"
+        names[what] = obj.name
         sun = obj.type == "LIGHT" and obj.data.type == "SUN"
         if obj != scene.camera and not sun and obj.name not in followed:
             state[(what, "placement")] = np.array(ob.matrix_world)
@@ -178,6 +239,7 @@ def _unfollowed_state(scene, depsgraph, followed):
             mesh.vertices.foreach_get("co", co)
             ob.to_mesh_clear()
             state[(what, "shape")] = co
+    state[(f"scene '{scene.name}'", "objects shown")] = [i for i, o in enumerate(scene.objects) if shown_in_render(o)]
     placements = {}
     for inst in depsgraph.object_instances:
         if inst.is_instance:

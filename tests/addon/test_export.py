@@ -14,6 +14,7 @@ from addon.export.animation import export_animation
 from addon.export.convert import BLENDER_TO_SCENE
 from volpath.adaptive import SLACK
 from volpath.testing import MIN_BATCHES, max_z, render_batches
+from volpath.xml_reader import read_xml
 
 
 def test_round_trip_camera_lights_meshes(blank, tmp_path):
@@ -427,16 +428,21 @@ def keyframed(owner, attribute, first, last):
 
 def pipeline_frames_as_f12(scene, anim, frames, tmp_path):
     """Asserts that each pipeline frame of the exported animation `anim` is the bits of the
-    scene exported afresh at that frame (what F12 renders); returns the frames' means."""
+    scene exported afresh at that frame (what F12 renders; with the objects the animation
+    instances because they move or deform as instances too: F12 places a mesh used once in
+    the world, which changes rounding, not the image, tests/python/test_instances.py), and
+    that the worker moved to each frame after the first in place. Returns the frames' means."""
     from pipeline.frames import render_frame
 
+    instanced = json.loads((anim / "animation.json").read_text())["instanced"]
     means = []
     for f in frames:
-        image, _ = render_frame(str(anim), f, 4, threads=1)
+        image, meta = render_frame(str(anim), f, 4, threads=1)
         scene.frame_set(f)
-        fresh = write_directory(export_scene(depsgraph()), tmp_path / f"f{f}")
+        fresh = write_directory(export_scene(depsgraph(), instanced=instanced), tmp_path / f"f{f}")
         expected = volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)
         assert np.array_equal(image, expected), f"frame {f}"
+        assert meta["scene_built"] == (f == frames[0]), f"frame {f}"
         means.append(image.mean())
     return means
 
@@ -445,9 +451,10 @@ def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     """Issue #57's user: a cube keyframed across the floor, a point lamp from 300 W to 1500 W
     and a material from red to green; and a shape key, a focal length and a world's strength.
     The export names what it found animated besides the camera, the lamps and VDB sequences
-    (animation.json, summary.json, the report), exports those frames whole, and every
-    pipeline frame is the bits of the scene exported afresh at that frame (what F12
-    renders). The mesh that does not change is written once."""
+    (animation.json, summary.json, the report), writes per frame the entries they change,
+    which a worker applies in place, and every pipeline frame is the bits of the scene
+    exported afresh at that frame (what F12 renders). The mesh that does not change is
+    written once, and the updates hold only what changes."""
     add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     sun = bpy.context.object
@@ -485,10 +492,14 @@ def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
         ("world 'world'", "node values"),
     }
     assert all(a["from_frame"] == 3 for a in animation["animated"])
-    assert [e.get("scene") for e in animation["frames"]] == [None, "scene_0003.xml", "scene_0005.xml"]
-    assert any("2 of 3 frames exported whole" in w and "mesh 'Cube'" in w for w in warnings)
+    assert [e.get("updates") for e in animation["frames"]] == [None, "updates_0003.xml", "updates_0005.xml"]
+    assert not any("scene" in e for e in animation["frames"])
+    assert animation["instanced"] == ["Cube", "Plane.001"]  # moving and deforming
+    assert any("animated besides" in w and "mesh 'Cube'" in w and "2 frames are updates" in w for w in warnings)
     floors = [f for f in os.listdir(anim / "meshes") if f.startswith("Plane_")]
     assert len(floors) == 1  # the floor, the same at every frame, is one file
+    updated = set(read_xml((anim / "updates_0005.xml").read_text()))
+    assert "Plane" not in updated and {"Cube", "Plane.001.group", "camera", "world"} <= updated
     means = pipeline_frames_as_f12(blank, anim, (1, 3, 5), tmp_path)
     assert means[2] > 1.5 * means[0]  # brighter lamp, world and greener cube: it really changed
 
@@ -501,8 +512,9 @@ def test_a_sunrise_is_updated_frame_by_frame_not_exported_whole(tmp_path):
     tiny_animation()
     warnings = export_animation(bpy.context.scene, [1, 2, 4], str(tmp_path))
     animation = json.loads((tmp_path / "animation.json").read_text())
-    assert animation["animated"] == [] and not any("scene" in e for e in animation["frames"])
-    assert not any("exported whole" in w for w in warnings)
+    assert animation["animated"] == [] and animation["instanced"] == []
+    assert not any("scene" in e or "updates" in e for e in animation["frames"])
+    assert not any("animated besides" in w for w in warnings)
 
 
 def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
@@ -518,15 +530,15 @@ def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
     keyframed(bpy.context.object.data, "energy", 300, 1500)
     anim = tmp_path / "anim"
     warnings = export_animation(blank, [1, 3, 5], str(anim))
-    assert not any("exported whole" in w for w in warnings)
+    assert not any("animated besides" in w for w in warnings)  # animation.json follows them
     means = pipeline_frames_as_f12(blank, anim, (1, 3, 5), tmp_path)
     assert means[2] > 2 * means[0]  # the lamps really brightened
 
 
 def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_renders_them(blank, tmp_path):
     """A cylinder bent by a keyframed bone, and particles instancing a sphere from an emitter
-    keyframed across the floor: named, exported whole, and each pipeline frame the bits of a
-    fresh export at that frame."""
+    keyframed across the floor: named, updated in place (the cylinder's group mesh replaced,
+    the instances moved), and each pipeline frame the bits of a fresh export at that frame."""
     add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     bpy.ops.mesh.primitive_plane_add(size=20)
@@ -559,3 +571,30 @@ def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_render
     packed = pack(str(anim))
     for f in (3, 5):
         assert np.array_equal(render_frame(packed, f, 4, threads=1)[0], render_frame(str(anim), f, 4, threads=1)[0])
+
+
+def test_an_object_shown_and_hidden_makes_its_frames_whole(blank, tmp_path):
+    """Keyframed Disable in Renders: the frames where the cube is hidden have other scene
+    entries than the first, so they are exported whole (scene_NNNN.xml), and still render
+    as F12 does (whose depsgraph leaves the cube out: `final`)."""
+    add_camera(blank)
+    bpy.ops.object.light_add(type="SUN")
+    bpy.ops.mesh.primitive_plane_add(size=20)
+    bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+    cube = bpy.context.object
+    for frame, hidden in ((1, False), (3, True), (5, False)):
+        cube.hide_render = hidden
+        cube.keyframe_insert("hide_render", frame=frame)
+    anim = tmp_path / "anim"
+    warnings = export_animation(blank, [1, 3, 5], str(anim))
+    animation = json.loads((anim / "animation.json").read_text())
+    assert [(a["what"], a["changes"]) for a in animation["animated"]] == [("scene 'Scene'", "objects shown")]
+    assert [e.get("scene") for e in animation["frames"]] == [None, "scene_0003.xml", None]
+    assert any("1 exported whole" in w for w in warnings)
+    from pipeline.frames import render_frame
+
+    for f in (1, 3, 5):
+        image, _ = render_frame(str(anim), f, 4, threads=1)
+        blank.frame_set(f)
+        fresh = write_directory(export_scene(depsgraph(), final=True), tmp_path / f"f{f}")  # as F12's depsgraph
+        assert np.array_equal(image, volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)), f

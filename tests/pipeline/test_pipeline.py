@@ -163,6 +163,9 @@ def test_kill_then_resume_renders_only_what_is_missing(tmp_path):
 
 
 def test_dask_cluster_gives_the_same_bits_as_the_local_pool(tmp_path):
+    """With more animated than the sun: the box keyframed across the floor and its colour,
+    which workers apply to their scenes in place. summary.json and the contact sheet's
+    caption name them."""
     from distributed import LocalCluster
 
     from addon.export.animation import export_animation
@@ -170,6 +173,12 @@ def test_dask_cluster_gives_the_same_bits_as_the_local_pool(tmp_path):
 
     tiny_animation(tmp_path / "tiny.blend", frames=3)
     scene = bpy.context.scene
+    box = scene.objects["Cube"]
+    colour = box.material_slots[0].material.node_tree.nodes["Principled BSDF"].inputs["Base Color"]
+    for frame, x, rgba in ((1, -2.0, (0.8, 0.3, 0.1, 1)), (3, 2.0, (0.1, 0.3, 0.8, 1))):
+        box.location.x, colour.default_value = x, rgba
+        box.keyframe_insert("location", frame=frame)
+        colour.keyframe_insert("default_value", frame=frame)
     animation = tmp_path / "scene"
     export_animation(scene, [1, 2, 3], str(animation))
     local = Run(str(animation), str(tmp_path / "local"), [1, 2, 3], Options(spp=4, workers=2), progress=lambda *a: None)
@@ -188,6 +197,10 @@ def test_dask_cluster_gives_the_same_bits_as_the_local_pool(tmp_path):
         b = volpath.read_exr(exr_path(str(tmp_path / "dask"), f))
         assert np.array_equal(a, b)
     assert all(s["status"] == "rendered" for s in dask.status.values())
+    summary = local.make_video()
+    assert {a["what"] for a in summary["animated"]} == {"mesh 'Cube'", "material 'box'"}
+    png = (tmp_path / "local" / "contact_sheet.png").read_bytes()
+    assert int.from_bytes(png[20:24], "big") > 36  # the frames' row and the caption under it
 
 
 def test_a_failing_frame_is_retried_reported_and_the_rest_completes(tmp_path):

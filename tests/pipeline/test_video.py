@@ -23,3 +23,16 @@ def test_sheet_labels_each_frame():
         tile = sheet[r * 18 : (r + 1) * 18, c * 32 : (c + 1) * 32]
         assert (tile == 255).all(axis=2)[-7:, :8].any()
     assert (sheet[18:, 32:] == 0).all()  # no fourth frame
+
+
+def test_the_sheet_names_what_the_animation_animates_under_its_frames():
+    """The caption: capitals wrapped at spaces into lines as wide as the sheet, under the
+    frames, which stay as they were; each letter its own glyph."""
+    frames = [np.full((18, 32, 3), 100, np.uint8) for _ in range(2)]
+    text = "animated: mesh 'Cube' (placement from frame 3)"
+    sheet = video.contact_sheet(frames, columns=2, caption=text)
+    assert np.array_equal(sheet[:18], video.contact_sheet(frames, columns=2))
+    lines = -(-len(text) // 15)  # at most 15 characters of 4 pixels on a 64-pixel line
+    assert sheet.shape[0] > 18 + 7 * (lines - 1) and (sheet[18:] == 255).any()
+    glyphs = {c: video.caption_band(8, c)[..., 0].tobytes() for c in "ABCDEFGHIJKLMNOPQRSTUVWXYZ'();:"}
+    assert len(set(glyphs.values())) == len(glyphs)

@@ -160,7 +160,8 @@ private:
         std::vector<Primitive> prims;
         std::vector<ShapeGeometry::Kind> kind;
         std::vector<Node> nodes;
-        Bounds bounds;  // of all its primitives, exact
+        Bounds bounds;        // of all its primitives, exact
+        Bounds fixed_bounds;  // of those but instances (which a refit moves), exact
     };
     Bvh top_;
     std::vector<Bvh> groups_;  // per shape group
@@ -171,15 +172,19 @@ private:
     static constexpr uint32_t kNoPrim = ~0u;
     std::vector<uint32_t> solid_prim_;
     uint32_t enclosure_ = kNoPrim;  // into top_.prims
-    void find_solids();             // solid_prim_ and enclosure_, from top_
+    // solid_prim_ and enclosure_ from top_: find_solids after a build, place_solids (from
+    // what find_solids kept) after a refit, where only instances moved.
+    std::vector<uint32_t> solids_, instance_prims_;  // into top_.prims: the spheres and boxes, the instances
+    uint32_t candidate_ = kNoPrim;                   // the largest sphere or box
+    bool fixed_held_ = false;                        // it holds all primitives but the instances
+    void find_solids();
+    void place_solids();
     // What refit() has to bring up to date: the instances moved and the groups changed.
     std::vector<uint32_t> moved_;
     std::vector<uint8_t> group_changed_;
     // Made by refit()'s first call after a build: per node of top_ its parent, per instance
-    // its leaf (kNoPrim: none, its group is empty), and the exact bounds of top_'s
-    // primitives but the instances.
+    // its leaf (kNoPrim: none, its group is empty).
     std::vector<uint32_t> parent_, instance_leaf_;
-    Bounds fixed_bounds_;
     void index_for_refit();
     std::vector<Primitive> group_prims(int group) const;
     bool holds(uint32_t solid, const Primitive &p) const;

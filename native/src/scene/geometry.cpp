@@ -129,6 +129,7 @@ Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
         for (size_t i = 0; i < bvh.prims.size(); ++i) {
             const Bounds b = primitive_bounds(bvh.prims[i]);
             bvh.bounds.extend(b);
+            if (bvh.prims[i].shape >= 0) bvh.fixed_bounds.extend(b);
             for (int a = 0; a < 3; ++a) bounds[i].lo[a] = rounded_down(b.lo[a]), bounds[i].hi[a] = rounded_up(b.hi[a]);
         }
         bvh.nodes.reserve(2 * bvh.prims.size());
@@ -177,30 +178,40 @@ void Geometry::build() {
 }
 
 void Geometry::find_solids() {
-    solid_prim_.assign(shapes.size(), kNoPrim);
-    enclosure_ = kNoPrim;
-    if (top_.prims.empty()) return;
-    auto solid = [&](uint32_t i) {
-        return top_.kind[i] == ShapeGeometry::Kind::Sphere || top_.kind[i] == ShapeGeometry::Kind::Box;
-    };
-    // Spheres and boxes whose bounds no other primitive's overlap are empty inside. Their
-    // bounds shrink by 1e-9 of their size first, so that a floor touching a sphere's bottom
-    // (to rounding) does not count: the sphere's exit is then found first within ray_epsilon.
-    // The enclosure: the largest of them, if it holds all the rest.
-    Real enclosure_area = 0;
+    solids_.clear(), instance_prims_.clear();
+    candidate_ = kNoPrim;
+    // The enclosure's candidate: the largest sphere or box.
+    Real area = 0;
     for (uint32_t i = 0; i < top_.prims.size(); ++i) {
-        if (!solid(i)) continue;
+        if (top_.kind[i] == ShapeGeometry::Kind::Instance) instance_prims_.push_back(i);
+        if (top_.kind[i] != ShapeGeometry::Kind::Sphere && top_.kind[i] != ShapeGeometry::Kind::Box) continue;
+        solids_.push_back(i);
+        const Bounds b = primitive_bounds(top_.prims[i]);
+        if (candidate_ == kNoPrim || b.surface_area() > area) candidate_ = i, area = b.surface_area();
+    }
+    // Whether it holds every primitive that no frame moves (all but the instances).
+    fixed_held_ = candidate_ != kNoPrim;
+    for (uint32_t i = 0; i < top_.prims.size() && fixed_held_; ++i)
+        if (i != candidate_ && top_.prims[i].shape >= 0 && !holds(candidate_, top_.prims[i])) fixed_held_ = false;
+    place_solids();
+}
+
+// Spheres and boxes whose bounds no other primitive's overlap are empty inside. Their
+// bounds shrink by 1e-9 of their size first, so that a floor touching a sphere's bottom (to
+// rounding) does not count: the sphere's exit is then found first within ray_epsilon. The
+// enclosure: the candidate, if it holds all the rest.
+void Geometry::place_solids() {
+    solid_prim_.assign(shapes.size(), kNoPrim);
+    for (uint32_t i : solids_) {
         const Bounds b = primitive_bounds(top_.prims[i]);
         const Vec3 margin(1e-9 * max_component(b.hi - b.lo));
         Bounds inner;
         inner.lo = b.lo + margin, inner.hi = b.hi - margin;
         if (!overlaps_another(inner, i)) solid_prim_[size_t(top_.prims[i].shape)] = i;
-        if (enclosure_ == kNoPrim || b.surface_area() > enclosure_area)
-            enclosure_ = i, enclosure_area = b.surface_area();
     }
-    for (uint32_t i = 0; i < top_.prims.size() && enclosure_ != kNoPrim; ++i) {
-        if (i != enclosure_ && !holds(enclosure_, top_.prims[i])) enclosure_ = kNoPrim;
-    }
+    enclosure_ = fixed_held_ ? candidate_ : kNoPrim;
+    for (uint32_t i : instance_prims_)
+        if (enclosure_ != kNoPrim && !holds(enclosure_, top_.prims[i])) enclosure_ = kNoPrim;
 }
 
 void Geometry::set_instance(int k, const Transform &to_world, const Transform &to_local) {
@@ -223,19 +234,14 @@ void Geometry::set_group_mesh(int shape, TriangleMesh mesh) {
 void Geometry::index_for_refit() {
     parent_.assign(top_.nodes.size(), kNoPrim);
     instance_leaf_.assign(instances.size(), kNoPrim);
-    fixed_bounds_ = Bounds{};
     for (uint32_t n = 0; n < top_.nodes.size(); ++n) {
         const Node &node = top_.nodes[n];
         if (node.count == 0) {
             parent_[n + 1] = parent_[node.first] = n;
             continue;
         }
-        for (uint32_t j = node.first; j < node.first + node.count; ++j) {
-            if (top_.prims[j].shape < 0)
-                instance_leaf_[top_.prims[j].index] = n;
-            else
-                fixed_bounds_.extend(primitive_bounds(top_.prims[j]));
-        }
+        for (uint32_t j = node.first; j < node.first + node.count; ++j)
+            if (top_.prims[j].shape < 0) instance_leaf_[top_.prims[j].index] = n;
     }
 }
 
@@ -265,7 +271,7 @@ void Geometry::refit() {
         }
     }
     moved_.clear(), group_changed_.assign(size_t(group_count_), 0);
-    top_.bounds = fixed_bounds_;
+    top_.bounds = top_.fixed_bounds;
     group_bounds_.assign(size_t(group_count_), Bounds{});
     for (uint32_t k = 0; k < instances.size(); ++k) {
         if (instance_leaf_[k] == kNoPrim) continue;
@@ -273,7 +279,7 @@ void Geometry::refit() {
         top_.bounds.extend(b);
         group_bounds_[size_t(instances[k].group)].extend(b);
     }
-    find_solids();
+    place_solids();
 }
 
 // Whether the sphere or box `solid` (into top_.prims) holds all of primitive p: its points
