@@ -120,11 +120,15 @@ class Scene:
         """
         Gives BSDF `bsdf` the parameters of the last one added, which is taken off (a material's values at an animation's frame; a leaf BSDF without textures).
         """
-    def set_camera(self, to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], tan_x: typing.SupportsFloat | typing.SupportsIndex, tan_y: typing.SupportsFloat | typing.SupportsIndex, width: typing.SupportsInt | typing.SupportsIndex, height: typing.SupportsInt | typing.SupportsIndex, near_clip: typing.SupportsFloat | typing.SupportsIndex, far_clip: typing.SupportsFloat | typing.SupportsIndex, medium: typing.SupportsInt | typing.SupportsIndex, gaussian: bool, shift_x: typing.SupportsFloat | typing.SupportsIndex = 0.0, shift_y: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> None:
+    def set_camera(self, to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], tan_x: typing.SupportsFloat | typing.SupportsIndex, tan_y: typing.SupportsFloat | typing.SupportsIndex, width: typing.SupportsInt | typing.SupportsIndex, height: typing.SupportsInt | typing.SupportsIndex, near_clip: typing.SupportsFloat | typing.SupportsIndex, far_clip: typing.SupportsFloat | typing.SupportsIndex, medium: typing.SupportsInt | typing.SupportsIndex, gaussian: bool, shift_x: typing.SupportsFloat | typing.SupportsIndex = 0.0, shift_y: typing.SupportsFloat | typing.SupportsIndex = 0.0, motion: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None = None) -> None:
         ...
     def set_group_mesh(self, shape: typing.SupportsInt | typing.SupportsIndex, positions: typing.Annotated[numpy.typing.ArrayLike, numpy.float64], triangles: typing.Annotated[numpy.typing.ArrayLike, numpy.uint32], normals: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None = None, uvs: typing.Annotated[numpy.typing.ArrayLike, numpy.float64] | None = None) -> None:
         """
         Replaces a shape group's mesh (a deformed mesh at an animation's frame); build() then rebuilds that group's BVH and refits the scene's.
+        """
+    def set_instance_motion(self, instance: typing.SupportsInt | typing.SupportsIndex, keys: typing.Annotated[numpy.typing.ArrayLike, numpy.float64]) -> None:
+        """
+        Instance k's motion over the shutter: its to_world at evenly spaced times from the shutter's opening to its closing (K >= 2, 4, 4), interpolated linearly between them (motion blur).
         """
     def set_instances(self, instances: typing.Annotated[numpy.typing.ArrayLike, numpy.int32], to_world: typing.Annotated[numpy.typing.ArrayLike, numpy.float64]) -> None:
         """

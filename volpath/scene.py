@@ -49,7 +49,7 @@ class Scene:
         """Move the scene to ``d``: the dictionary it was loaded from with some of its
         top-level entries replaced (an animation's next frame, a lamp edited in the
         viewport). What can change in place does: the sensor; an emitter, by one of its type;
-        an instance's ``to_world`` (the BVH is refit, not rebuilt); a shape group's meshes
+        an instance's ``to_world`` and ``motion`` (the BVH is refit, not rebuilt); a shape group's meshes
         (that group's BVH alone is rebuilt); a shape's BSDF, by a leaf without textures.
         Meshes, media, the BVH, and the sky map's levels while the sun stays within their
         elevations, are kept, and rays find what ``load_dict(d)``'s would. Entries not

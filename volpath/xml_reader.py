@@ -42,6 +42,7 @@ _VALUE_TAGS = {
     "vector",
     "spectrum",
     "transform",
+    "animation",
     "ref",
 }
 _TRANSFORM_OPS = {"translate", "scale", "rotate", "lookat", "matrix"}
@@ -179,7 +180,20 @@ class _Reader:
             return np.array([self.floats(file, node, v, 1, tag)[0] for v in xyz])
         if tag == "transform":
             return self.transform(file, node)
+        if tag == "animation":
+            return self.animation(file, node)
         raise AssertionError(tag)
+
+    def animation(self, file, node):
+        """Mitsuba 0.6's animated transform: <transform time="..."> keys, evenly spaced from
+        the shutter's opening (0) to its closing (1); a (K, 4, 4) array."""
+        keys = [child for child in node.children if child.tag == "transform"]
+        if len(keys) < 2 or len(keys) != len(node.children):
+            self.fail(file, node, "an <animation> holds two or more <transform time=...> keys and nothing else")
+        times = [self.floats(file, k, self.attr(file, k, "time"), 1, "time")[0] for k in keys]
+        if not np.allclose(times, np.linspace(0, 1, len(keys)), atol=1e-6):
+            self.fail(file, node, f"an <animation>'s keys must be evenly spaced from time 0 to 1, got {times}")
+        return np.array([self.transform(file, k) for k in keys])
 
     def spectrum(self, file, node):
         if "filename" in node.attrs:

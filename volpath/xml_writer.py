@@ -168,6 +168,15 @@ class _Writer:
                 f'{pad}    <matrix value="{" ".join(map(_num, arr.ravel()))}"/>',
                 f"{pad}</transform>",
             ]
+        if arr.ndim == 3 and arr.shape[1:] == (4, 4):  # motion keys, evenly spaced over the shutter
+            lines = [f"{pad}<animation{name}>"]
+            for k, m in enumerate(arr):
+                lines += [
+                    f'{pad}    <transform time="{_num(k / (len(arr) - 1))}">',
+                    f'{pad}        <matrix value="{" ".join(map(_num, m.ravel()))}"/>',
+                    f"{pad}    </transform>",
+                ]
+            return [*lines, f"{pad}</animation>"]
         raise TypeError(f"cannot write '{key}' ({type(value).__name__}) as XML")
 
     def obj(self, key, d, depth, top):

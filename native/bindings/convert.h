@@ -50,6 +50,13 @@ inline std::vector<Transform> transforms(const DoubleArray &m, const char *what)
     return out;
 }
 
+// Motion keys (K >= 2, 4, 4): a map at evenly spaced times over the shutter.
+inline MotionKeys motion_keys(const DoubleArray &m) {
+    MotionKeys motion{transforms(m, "motion")};
+    if (motion.keys.size() < 2) throw std::invalid_argument("a motion needs at least two keys");
+    return motion;
+}
+
 inline std::vector<Vec3> points(const DoubleArray &a, const char *what) {
     if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must have shape (n, 3)");
     std::vector<Vec3> out(size_t(a.shape(0)));

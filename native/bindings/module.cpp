@@ -528,6 +528,15 @@ PYBIND11_MODULE(_core, m) {
             "build() then refits the BVH.",
             py::arg("instances"), py::arg("to_world"))
         .def(
+            "set_instance_motion",
+            [](Scene &s, int k, const DoubleArray &keys) {
+                if (k < 0 || size_t(k) >= s.geometry.instances.size()) throw std::out_of_range("invalid instance");
+                s.set_instance(k, s.geometry.instances[size_t(k)].to_world, motion_keys(keys));
+            },
+            "Instance k's motion over the shutter: its to_world at evenly spaced times from the shutter's opening "
+            "to its closing (K >= 2, 4, 4), interpolated linearly between them (motion blur).",
+            py::arg("instance"), py::arg("keys"))
+        .def(
             "set_group_mesh",
             [](Scene &s, int shape, const DoubleArray &positions, const TriangleArray &triangles,
                std::optional<DoubleArray> normals, std::optional<DoubleArray> uvs) {
@@ -654,10 +663,12 @@ PYBIND11_MODULE(_core, m) {
         .def(
             "set_camera",
             [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,
-               double near_clip, double far_clip, int medium, bool gaussian, double shift_x, double shift_y) {
+               double near_clip, double far_clip, int medium, bool gaussian, double shift_x, double shift_y,
+               std::optional<DoubleArray> motion) {
                 if (width < 1 || height < 1) throw std::invalid_argument("film size must be positive");
                 Camera &c = s.camera;
                 c.to_world = transform(to_world);
+                c.motion = motion ? motion_keys(*motion) : MotionKeys{};
                 c.tan_half_x = tan_x, c.tan_half_y = tan_y;
                 c.shift_x = shift_x, c.shift_y = shift_y;
                 c.width = width, c.height = height;
@@ -668,7 +679,7 @@ PYBIND11_MODULE(_core, m) {
             },
             py::arg("to_world"), py::arg("tan_x"), py::arg("tan_y"), py::arg("width"), py::arg("height"),
             py::arg("near_clip"), py::arg("far_clip"), py::arg("medium"), py::arg("gaussian"), py::arg("shift_x") = 0.0,
-            py::arg("shift_y") = 0.0)
+            py::arg("shift_y") = 0.0, py::arg("motion") = py::none())
         .def("build",
              [](Scene &s) {
                  py::gil_scoped_release release;

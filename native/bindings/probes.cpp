@@ -178,10 +178,10 @@ PYBIND11_MODULE(_probes, m) {
     // Nearest hit of each ray (rows of o and d): t (inf on a miss), the shape index and the
     // geometric normal; `medium`: the one the rays travel in, as the tracers pass it.
     // medium None: the plain BVH traversal; else the ray travels in that medium (-1: none),
-    // with the shortcuts of Scene::intersect.
+    // with the shortcuts of Scene::intersect. `time`: the rays' time in the shutter.
     m.def(
         "intersect",
-        [](Scene &s, const DoubleArray &o, const DoubleArray &d, std::optional<int> medium) {
+        [](Scene &s, const DoubleArray &o, const DoubleArray &d, std::optional<int> medium, double time) {
             if (!s.built) s.build();
             const std::vector<Vec3> os = points(o, "origins"), ds = points(d, "directions");
             if (os.size() != ds.size()) throw std::invalid_argument("need as many origins as directions");
@@ -193,7 +193,7 @@ PYBIND11_MODULE(_probes, m) {
             auto ss = shape.mutable_unchecked<1>();
             for (size_t i = 0; i < os.size(); ++i) {
                 Intersection its;
-                const Ray ray{os[i], normalize(ds[i]), 0, kInfinity};
+                const Ray ray{os[i], normalize(ds[i]), 0, kInfinity, time};
                 const bool hit = medium ? s.intersect(ray, its, *medium) : s.intersect(ray, its);
                 tt(i) = hit ? its.t : kInfinity;
                 ss(i) = hit ? its.shape : -1;
@@ -201,7 +201,7 @@ PYBIND11_MODULE(_probes, m) {
             }
             return py::make_tuple(t, shape, n);
         },
-        py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none());
+        py::arg("scene"), py::arg("o"), py::arg("d"), py::arg("medium") = py::none(), py::arg("time") = 0.0);
     // Per ray: whether it hits anything before t_max (Geometry::occluded, the shadow rays' query).
     m.def(
         "occluded",

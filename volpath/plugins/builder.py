@@ -28,6 +28,7 @@ class Builder:
         self.textures = {}  # id(dict) -> native index
         self.groups = {}  # id(dict) of a shapegroup -> native index
         self.instances = []  # (group, instance dict) waiting for shapes.add_instances
+        self.instance_motions = {}  # their motion keys, by native index
         # What Scene.update changes in place: id(shape dict) -> (native shape, its bsdf), and
         # id(instance dict) -> native instance.
         self.built_shapes, self.built_instances = {}, {}
@@ -137,11 +138,14 @@ class Builder:
             return None
         if new["type"] == "instance":
             k = self.built_instances.get(id(old))
-            if k is None or not _equal(old, new, but={"to_world"}):
+            if k is None or not _equal(old, new, but={"to_world", "motion"}):
                 return None
 
             def move():
-                self.native.set_instances(np.array([k]), self.params(new, "shape").transform()[None])
+                p = self.params(new, "shape")
+                self.native.set_instances(np.array([k]), p.transform()[None])
+                if p.motion() is not None:
+                    self.native.set_instance_motion(k, p.motion())
                 self.built_instances[id(new)] = k
 
             return move

@@ -104,6 +104,18 @@ class Params:
             raise self.error(f"'{name}' is singular")
         return m
 
+    def motion(self, name="motion"):
+        """Motion keys (K >= 2, 4, 4): the map at evenly spaced times over the shutter, or None."""
+        v = self.raw(name)
+        if v is None:
+            return None
+        m = np.asarray(v, dtype=np.float64) if isinstance(v, (list, tuple, np.ndarray)) else None
+        if m is None or m.ndim != 3 or m.shape[0] < 2 or m.shape[1:] != (4, 4) or not np.all(np.isfinite(m)):
+            raise self.error(f"'{name}' must be two or more 4x4 transforms (K, 4, 4)")
+        if (np.abs(np.linalg.det(m[:, :3, :3])) < 1e-300).any():
+            raise self.error(f"'{name}' holds a singular transform")
+        return m
+
     def ignored(self, name, why):
         """A parameter that an older spelling defines and that changes nothing in Volpath's
         image: read, with a SceneWarning naming where it is."""

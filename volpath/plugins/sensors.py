@@ -64,6 +64,7 @@ def build(b, d):
             raise sp.error("'sample_count' must be at least 1")
         sp.check()
     to_world = p.transform()
+    motion = p.motion()  # over the shutter: motion blur
     if p.has("fov"):
         fov = p.float("fov")
         if not 0 < fov < 180:
@@ -104,7 +105,7 @@ def build(b, d):
         for index, center, top in b.atmospheres:
             if np.linalg.norm(to_world[:3, 3] - center) < top:
                 medium_index = index
-    b.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian, shift_x, shift_y)
+    b.native.set_camera(to_world, tx, ty, width, height, near, far, medium_index, gaussian, shift_x, shift_y, motion)
     b.summary["camera"] = {
         "width": width,
         "height": height,

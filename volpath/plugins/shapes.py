@@ -187,9 +187,12 @@ def instance(b, d):
     if len(groups) != 1:
         raise p.error(f"an instance names exactly one shapegroup (found {len(groups)})")
     p.raw("to_world")  # checked with the other instances' in add_instances
+    motion = p.motion()  # over the shutter: motion blur
     p.check()
     b.instances.append((shape_group(b, groups[0]), d))
     b.built_instances[id(d)] = b.summary["instances"]  # its index: add_instances adds them in this order
+    if motion is not None:
+        b.instance_motions[b.summary["instances"]] = motion
     b.summary["instances"] += 1
 
 
@@ -210,6 +213,9 @@ def add_instances(b):
     if not valid:
         m = np.array([b.params(d, "shape").transform() for d in dicts])
     b.native.add_instances(np.array(groups, dtype=np.int32), m)
+    for k, motion in b.instance_motions.items():
+        b.native.set_instance_motion(k, motion)
+    b.instance_motions = {}
 
 
 def mesh_arrays(p):

@@ -5,6 +5,7 @@
 // module linked to Embree 3 binds to by mistake (native/README.md).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <optional>
 #include <vector>
@@ -59,6 +60,19 @@ struct Intersection {
     int shape = -1;
     uint32_t prim = 0;
     int instance = -1;  // the instance through which a shape group's shape was hit
+    Real time = 0;      // the ray's (where a moving instance was when it was hit)
+};
+
+// A map over the shutter's interval: `keys` at evenly spaced times from its opening (0) to
+// its closing (1), interpolated linearly between them (see lerp); no keys, it holds still.
+struct MotionKeys {
+    std::vector<Transform> keys;
+    bool moves() const { return !keys.empty(); }
+    Transform at(Real time) const {
+        const Real x = std::clamp(time, Real(0), Real(1)) * Real(keys.size() - 1);
+        const size_t i = std::min(size_t(x), keys.size() - 2);
+        return lerp(keys[i], keys[i + 1], x - Real(i));
+    }
 };
 
 // One entry per scene shape: a mesh, a sphere or a box.
@@ -76,8 +90,8 @@ struct ShapeGeometry {
 // direction is not renormalised).
 struct Instance {
     int group = 0;
-    Transform to_world, to_local;
-    bool mirrored = false;  // det(to_world) < 0: faces turn as a flattened copy's would
+    Transform to_world, to_local;  // (mirroring where det(to_world) < 0: faces turn as a flattened copy's)
+    MotionKeys motion;             // where it moves over the shutter (motion blur), if it does
 };
 
 class Geometry {
@@ -93,14 +107,14 @@ public:
     int add_sphere(const Sphere &sphere);
     int add_box(const Box &box);
     int add_group() { return group_count_++; }
-    int add_instance(int group, const Transform &to_world, const Transform &to_local);
+    int add_instance(int group, const Transform &to_world, const Transform &to_local, MotionKeys motion = {});
     void build();  // must be called after the last add
     // An animation's next frame, after build(): instance k moved, or the mesh of `shape` (a
     // shape group's member) deformed. refit() then brings the BVHs up to date: the changed
     // groups' built again, the scene's refit (its tree kept, the moved instances' leaves
     // and their ancestors' bounds made to fit), so that one object moving in a large scene
     // costs no rebuild of the rest. Rays find the same hits as after a build.
-    void set_instance(int k, const Transform &to_world, const Transform &to_local);
+    void set_instance(int k, const Transform &to_world, const Transform &to_local, MotionKeys motion = {});
     void set_group_mesh(int shape, TriangleMesh mesh);
     void refit();
     bool intersect(const Ray &ray, Intersection &its) const;
@@ -233,6 +247,8 @@ private:
     bool traverse(const Ray &ray, Hit &closest, bool any, Accept &&accept) const;
     // The intersection in a group's space mapped into the world's (by its.instance).
     void to_world(Intersection &its) const;
+    // Instance k's maps at `time`: its own, where it does not move.
+    std::pair<Transform, Transform> placement(uint32_t k, Real time) const;
     // The hit point in its shape's own space (a group's, else the world's).
     Vec3 local_point(const Intersection &its) const;
     // A sphere's or box's entry and exit distances (t0 <= t1) along the whole line; inv_d:

@@ -131,9 +131,21 @@ struct Transform {
     }
 };
 
+// Element by element: the map between two keys of a motion. Every point then moves on a
+// straight line between its places at the keys, so the keys' bounds bound it throughout.
+inline Transform lerp(const Transform &a, const Transform &b, Real f) {
+    Transform t;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 4; ++j) t.m[i][j] = (1 - f) * a.m[i][j] + f * b.m[i][j];
+    return t;
+}
+
 struct Ray {
     Vec3 o, d;  // d is unit length
     Real t_min = 0, t_max = kInfinity;
+    // When in the shutter's interval, in [0, 1): where what moves is (see MotionKeys); every
+    // ray of a path keeps its camera ray's.
+    Real time = 0;
     Vec3 at(Real t) const { return o + d * t; }
 };
 
@@ -145,10 +157,11 @@ enum class RayKind : uint8_t { Camera = 1, Diffuse = 2, Glossy = 4, Transmission
 // because double-precision intersection error grows with it.
 inline Real ray_epsilon(const Vec3 &p) { return 1e-11 + 1e-9 * max_component(abs(p)); }
 
-// A ray that leaves a surface point on the side of `d` (n = 0 for points in a medium).
-inline Ray spawn_ray(const Vec3 &p, const Vec3 &n, const Vec3 &d, Real t_max = kInfinity) {
+// A ray that leaves a surface point on the side of `d` (n = 0 for points in a medium), at
+// the path's `time`.
+inline Ray spawn_ray(Real time, const Vec3 &p, const Vec3 &n, const Vec3 &d, Real t_max = kInfinity) {
     const Real side = dot(d, n) >= 0 ? 1.0 : -1.0;
-    return Ray{p + n * (side * ray_epsilon(p)), d, 0, t_max};
+    return Ray{p + n * (side * ray_epsilon(p)), d, 0, t_max, time};
 }
 
 }  // namespace volpath

@@ -39,6 +39,7 @@ struct Camera {
     Real near_clip = 1e-2, far_clip = 1e4;
     int medium = -1;
     bool gaussian_filter = false;  // Mitsuba's default: stddev 0.5 px, radius 2 px
+    MotionKeys motion;             // to_world over the shutter (motion blur), if it moves
 };
 
 // What a render reads besides the scene's description, all of it derived from the
@@ -65,6 +66,9 @@ struct RenderContext {
     size_t point_and_directional = 0;
     bool lights_hide_lobes = false;  // a light hides from Diffuse, Glossy or Transmission rays
     bool has_environment = false;    // an EnvironmentLight among the lights
+    // Whether the camera or an instance moves over the shutter: each camera ray then draws
+    // its time (motion blur).
+    bool motion = false;
     // The first sun or directional light, which guides free flights in the air.
     std::optional<SunGuide> sun;
     int sun_light = -1;  // its index
@@ -132,14 +136,14 @@ struct Scene {
     // instances: each places the whole group by an affine map (Mitsuba's shapegroup and
     // instance).
     int add_group() { return geometry.add_group(); }
-    int add_instance(int group, const Transform &to_world, const Transform &to_local);
+    int add_instance(int group, const Transform &to_world, const Transform &to_local, MotionKeys motion = {});
     int add_light(const Light &l, uint8_t hidden_from = 0);
     // An animation's next frame, where the shapes' description changes but not its layout:
     // instance k moved, a shape group's mesh deformed (Geometry::refit), a shape's BSDF
     // replaced by the last one added (its new parameters: that one is taken off the end, so
     // frames do not accumulate BSDFs; a leaf without textures only). build() then redoes
     // the context, and the BVH only where it changed.
-    void set_instance(int k, const Transform &to_world);
+    void set_instance(int k, const Transform &to_world, MotionKeys motion = {});
     void set_group_mesh(int shape, TriangleMesh mesh);
     void replace_bsdf(int bsdf);
     // Replaces light i, and the rays it is hidden from, by another of its kind (an

@@ -82,7 +82,7 @@ Spectrum absorption_radiance(const Scene &scene, Ray ray, int medium, Sampler &s
             }
         }
         medium = medium_after_crossing(shape, ray.d, its.n, medium);
-        ray = spawn_ray(its.p, its.n, ray.d, ray.t_max - its.t);
+        ray = spawn_ray(ray.time, its.p, its.n, ray.d, ray.t_max - its.t);
     }
     return L;
 }

@@ -41,7 +41,7 @@ bool Path::leaves_for_empty_space(bool hit, const Intersection &its) const {
         medium_after_crossing(scene.shapes[its.shape], ray.d, its.n, medium) >= 0)
         return false;
     Intersection beyond;
-    return !scene.intersect(spawn_ray(its.p, its.n, ray.d), beyond);
+    return !scene.intersect(spawn_ray(ray.time, its.p, its.n, ray.d), beyond);
 }
 
 // The guided free flight through the air (AirSegment): pass through or collide with a

@@ -108,7 +108,7 @@ bool trace_shadow(const Scene &scene, Ray ray, int current, const Light &light, 
         s.left_guided_air = next < 0 && current >= 0 && guided_air(scene.media[current]);
         current = next;
         remaining -= its.t;
-        ray = spawn_ray(its.p, its.n, ray.d, remaining);
+        ray = spawn_ray(ray.time, its.p, its.n, ray.d, remaining);
         // Russian roulette before tracing on, where the transmittance so far is small.
         if (const Real T_max = max_component(s.T); T_max < kShadowRouletteT) [[unlikely]] {
             if (!(sampler.independent_1d() * kShadowRouletteT < T_max)) return false;

@@ -31,17 +31,17 @@ bool trace_shadow(const Scene &scene, Ray ray, int current, const Light &light, 
 
 // Next-event estimation from a scattering point: choose a light (uniformly among
 // RenderContext::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
-// sample a point on it and trace a shadow ray through index-matched boundaries and media.
-// `eval(d, hidden_lobes)` returns the scattering value f (times the cosine, for surfaces; of
+// sample a point on it and trace a shadow ray (at the path's `time`) through index-matched
+// boundaries and media. `eval(d, hidden_lobes)` returns the scattering value f (times the cosine, for surfaces; of
 // the lobes the light does not hide from, kLobeRays bits), `pdf(d)` the
 // density of sampling d per channel: asked for only where phase or BSDF sampling could
 // find the light too (MIS). r_p is the path's rescaled unidirectional pdf.
 // `vertex`: the point is a SegmentVertex: drawn for its light, or free flight's collision,
 // which chooses among RenderContext::collision_nee_lights (see SegmentVertex).
 template <typename Eval, typename Pdf>
-Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface, int medium,
-                       const Spectrum &beta, const Spectrum &r_p, int channel, bool mis, Sampler &sampler, Eval &&eval,
-                       Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
+Spectrum sample_direct(const Scene &scene, Real time, const Vec3 &p, const Vec3 &n, const ShapeInfo *surface,
+                       int medium, const Spectrum &beta, const Spectrum &r_p, int channel, bool mis, Sampler &sampler,
+                       Eval &&eval, Pdf &&pdf, const SegmentVertex *vertex = nullptr) {
     // No weight (an empty voxel under a majorant cell's peak): no shadow ray to pay for.
     if (is_black(beta)) return Spectrum(0.0);
     const bool toward_light = vertex && vertex->light >= 0, collision = vertex && !toward_light;
@@ -67,7 +67,7 @@ Spectrum sample_direct(const Scene &scene, const Vec3 &p, const Vec3 &n, const S
     if (is_black(f)) return Spectrum(0.0);
 
     Shadow shadow;
-    const Ray ray = spawn_ray(p, n, ls.d, std::isfinite(ls.dist) ? ls.dist * (1 - 1e-7) : kInfinity);
+    const Ray ray = spawn_ray(time, p, n, ls.d, std::isfinite(ls.dist) ? ls.dist * (1 - 1e-7) : kInfinity);
     const int start = surface ? medium_after_crossing(*surface, ls.d, n, medium) : medium;
     if (!unshadowed && !trace_shadow(scene, ray, start, scene.lights[light], ls.delta, channel, sampler, shadow))
         return Spectrum(0.0);

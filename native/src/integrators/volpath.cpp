@@ -138,7 +138,7 @@ void Path::add_emission(const Spectrum &emitted, int light, Real pdf_light_dir) 
 Spectrum Path::direct_in_medium(const Vec3 &p, const PhaseFunction &phase, const Spectrum &beta_p, const Spectrum &r_p,
                                 const SegmentVertex *vertex, const SkyPoint *sky) {
     return sample_direct(
-        scene, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
+        scene, ray.time, p, Vec3(0.0), nullptr, medium, beta_p, r_p, channel, feat.mis, sampler,
         [&](const Vec3 &d, uint8_t) { return phase_eval(phase, dot(ray.d, d)); },
         [&](const Vec3 &d) { return sky ? sky->pdf(ray.d, d) : phase_pdf(phase, dot(ray.d, d)); }, vertex);
 }
@@ -216,7 +216,7 @@ bool Path::scatter_in_medium(const Vec3 &p, const Medium &m, const SegmentVertex
     ray_kind = RayKind::Scatter;
     scattered_in_air = map != nullptr;
     null_crossings = 0;
-    ray = Ray{p, ps.d_out, 0, kInfinity};
+    ray = Ray{p, ps.d_out, 0, kInfinity, ray.time};
     if (sky_model) return roulette_after_sky_model(arriving, kSkyRouletteSurvival);
     return map && feat.nee ? roulette_by_share(map->radiance(sky->at, ps.d_out)) : roulette();
 }
@@ -457,7 +457,7 @@ Step Path::at_surface(const Intersection &its) {
         segment += next != medium;
         medium = next;
         const Real t_left = ray.t_max - its.t;
-        ray = spawn_ray(its.p, its.n, ray.d, t_left);
+        ray = spawn_ray(ray.time, its.p, its.n, ray.d, t_left);
         return Step::NewRay;
     };
     if (shape.hides_from(ray_kind)) return pass_through();
@@ -485,7 +485,7 @@ Step Path::at_surface(const Intersection &its) {
     const Vec3 wi = frame.to_local(-ray.d);
     if (feat.nee && !is_delta(bsdf)) {
         L += sample_direct(
-            scene, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler,
+            scene, ray.time, its.p, its.n, &shape, medium, beta, r_u, channel, feat.mis, sampler,
             [&](const Vec3 &d, uint8_t hidden_lobes) { return bsdf_eval(bsdf, wi, frame.to_local(d), hidden_lobes); },
             [&](const Vec3 &d) { return Spectrum(bsdf_pdf(bsdf, wi, frame.to_local(d))); });
         if (!feat.emission_after_scatter || (last_vertex() && !scene.has_hittable_emitters())) return Step::Ended;
@@ -508,7 +508,7 @@ Step Path::at_surface(const Intersection &its) {
     prev_p = its.p;
     null_crossings = 0;
     medium = medium_after_crossing(shape, wo, its.n, medium);
-    ray = spawn_ray(its.p, its.n, wo);
+    ray = spawn_ray(ray.time, its.p, its.n, wo);
     if (is_black(beta)) return Step::Ended;
     return roulette() ? Step::NewRay : Step::Ended;
 }

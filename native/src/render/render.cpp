@@ -25,11 +25,12 @@ Vec2 filter_offset(const Camera &camera, Sampler &sampler) {
     }
 }
 
-Ray camera_ray(const Camera &c, Real px, Real py) {
+Ray camera_ray(const Camera &c, Real px, Real py, Real time) {
     const Vec3 local = normalize(Vec3((1.0 - 2.0 * px / c.width) * c.tan_half_x + c.shift_x,
                                       (1.0 - 2.0 * py / c.height) * c.tan_half_y + c.shift_y, 1.0));
-    const Vec3 d = normalize(c.to_world.vector(local));
-    return Ray{c.to_world.point(Vec3(0.0)), d, c.near_clip / local.z, c.far_clip / local.z};
+    const Transform to_world = c.motion.moves() ? c.motion.at(time) : c.to_world;
+    const Vec3 d = normalize(to_world.vector(local));
+    return Ray{to_world.point(Vec3(0.0)), d, c.near_clip / local.z, c.far_clip / local.z, time};
 }
 
 // The seed of a half-buffer's sequence: the even samples keep the render's own.
@@ -43,7 +44,7 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
         if (!scene.intersect(ray, its)) break;
         const ShapeInfo &shape = scene.shapes[size_t(its.shape)];
         if (shape.hides_from(RayKind::Camera)) {
-            ray = spawn_ray(its.p, its.n, ray.d);
+            ray = spawn_ray(ray.time, its.p, its.n, ray.d);
             continue;
         }
         if (shape.light >= 0) return {Spectrum(1.0), Vec3(0.0), true, its.p};
@@ -54,7 +55,7 @@ SurfaceFeatures first_surface(const Scene &scene, Ray ray) {
             if (surface.bsdf && !is_null(*surface.bsdf))
                 return {bsdf_albedo(*surface.bsdf), dot(surface.ns, ray.d) > 0 ? -surface.ns : surface.ns, true, its.p};
         }
-        ray = spawn_ray(its.p, its.n, ray.d);
+        ray = spawn_ray(ray.time, its.p, its.n, ray.d);
     }
     return {};
 }
@@ -99,7 +100,9 @@ RenderStats render(const Scene &scene, const RenderSettings &settings, float *im
                         Sampler sampler(half_seed(settings.seed, half), pixel, settings.halves ? index >> 1 : index,
                                         settings.low_discrepancy);
                         const Vec2 o = filter_offset(cam, sampler);
-                        const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y);
+                        // (Drawn only where something moves: a still scene keeps its bits.)
+                        const Real time = scene.context.motion ? sampler.next_1d() : 0.0;
+                        const Ray ray = camera_ray(cam, x + 0.5 + o.x, y + 0.5 + o.y, time);
                         if (settings.features) {
                             const SurfaceFeatures f = first_surface(scene, ray);
                             albedo += f.albedo, normal += f.normal;

@@ -61,9 +61,10 @@ int Geometry::add_mesh(TriangleMesh mesh, int group) {
     return int(shapes.size()) - 1;
 }
 
-int Geometry::add_instance(int group, const Transform &to_world, const Transform &to_local) {
+int Geometry::add_instance(int group, const Transform &to_world, const Transform &to_local, MotionKeys motion) {
     if (group < 0 || group >= group_count_) throw std::out_of_range("invalid shape group");
-    instances.push_back({group, to_world, to_local, to_world.determinant3() < 0});
+    if (motion.keys.size() == 1) throw std::invalid_argument("a motion needs at least two keys");
+    instances.push_back({group, to_world, to_local, std::move(motion)});
     return int(instances.size()) - 1;
 }
 
@@ -88,10 +89,11 @@ int Geometry::add_box(const Box &box) {
 
 Bounds Geometry::primitive_bounds(const Primitive &p) const {
     Bounds b;
-    if (p.shape < 0) {  // an instance: its group's bounds' corners, mapped
+    if (p.shape < 0) {  // an instance: its group's bounds' corners, mapped (at each key of a motion)
         const Instance &inst = instances[p.index];
         const Bounds local = groups_[size_t(inst.group)].bounds;
-        for (int k = 0; k < 8; ++k) b.extend(inst.to_world.point(bounds_corner(local, k)));
+        for (const Transform &m : inst.motion.moves() ? inst.motion.keys : std::vector<Transform>{inst.to_world})
+            for (int k = 0; k < 8; ++k) b.extend(m.point(bounds_corner(local, k)));
         return b;
     }
     const ShapeGeometry &s = shapes[p.shape];
@@ -214,11 +216,12 @@ void Geometry::place_solids() {
         if (enclosure_ != kNoPrim && !holds(enclosure_, top_.prims[i])) enclosure_ = kNoPrim;
 }
 
-void Geometry::set_instance(int k, const Transform &to_world, const Transform &to_local) {
+void Geometry::set_instance(int k, const Transform &to_world, const Transform &to_local, MotionKeys motion) {
     if (k < 0 || size_t(k) >= instances.size()) throw std::out_of_range("invalid instance");
+    if (motion.keys.size() == 1) throw std::invalid_argument("a motion needs at least two keys");
     Instance &inst = instances[size_t(k)];
     inst.to_world = to_world, inst.to_local = to_local;
-    inst.mirrored = to_world.determinant3() < 0;
+    inst.motion = std::move(motion);
     moved_.push_back(uint32_t(k));
 }
 
@@ -611,8 +614,15 @@ int box_face_axis(const Vec3 &q) {
 
 }  // namespace
 
+std::pair<Transform, Transform> Geometry::placement(uint32_t k, Real time) const {
+    const Instance &inst = instances[k];
+    if (!inst.motion.moves()) return {inst.to_world, inst.to_local};
+    const Transform m = inst.motion.at(time);
+    return {m, m.inverse()};
+}
+
 Vec3 Geometry::local_point(const Intersection &its) const {
-    return its.instance < 0 ? its.p : instances[size_t(its.instance)].to_local.point(its.p);
+    return its.instance < 0 ? its.p : placement(uint32_t(its.instance), its.time).second.point(its.p);
 }
 
 Vec2 Geometry::uv(const Intersection &its) const {
@@ -678,7 +688,7 @@ void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) cons
             }
         }
         if (its.instance >= 0) {
-            const Transform &m = instances[size_t(its.instance)].to_world;
+            const Transform m = placement(uint32_t(its.instance), its.time).first;
             dpdu = m.vector(dpdu), dpdv = m.vector(dpdv);
         }
     }
@@ -694,6 +704,7 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
     const Primitive &prim = bvh.prims[hit.prim];
     const ShapeGeometry &s = shapes[prim.shape];
     its.t = hit.t;
+    its.time = ray.time;
     if (s.kind == ShapeGeometry::Kind::Box) {
         // The face: the axis on which the hit point lies farthest out in the box's space.
         const Box &box = boxes[s.index];
@@ -727,17 +738,17 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
 }
 
 void Geometry::to_world(Intersection &its) const {
-    const Instance &inst = instances[size_t(its.instance)];
+    const auto [to_world, to_local] = placement(uint32_t(its.instance), its.time);
     // Normals map by the inverse transpose: rows of to_local.
     auto normal = [&](const Vec3 &n) {
-        const auto &m = inst.to_local.m;
+        const auto &m = to_local.m;
         return normalize(Vec3(m[0][0] * n.x + m[1][0] * n.y + m[2][0] * n.z,
                               m[0][1] * n.x + m[1][1] * n.y + m[2][1] * n.z,
                               m[0][2] * n.x + m[1][2] * n.y + m[2][2] * n.z));
     };
-    its.p = inst.to_world.point(its.p);
+    its.p = to_world.point(its.p);
     const Vec3 n = normal(its.n), ns = normal(its.ns);
-    its.n = inst.mirrored ? -n : n;
+    its.n = to_world.determinant3() < 0 ? -n : n;
     its.ns = dot(ns, its.n) >= 0 ? ns : -ns;
 }
 
@@ -813,7 +824,9 @@ bool Geometry::traverse(const Ray &ray, Hit &closest, bool any, Accept &&accept)
         // The ray in the group's space: the same t, up to a direction no longer unit.
         const Instance &inst = instances[prim.index];
         const Bvh &group = groups_[size_t(inst.group)];
-        const Ray local{inst.to_local.point(ray.o), inst.to_local.vector(ray.d), ray.t_min, closest.t};
+        Transform moved;
+        const Transform &to_local = inst.motion.moves() ? (moved = inst.motion.at(ray.time).inverse()) : inst.to_local;
+        const Ray local{to_local.point(ray.o), to_local.vector(ray.d), ray.t_min, closest.t, ray.time};
         const PreparedRay local_prepared(local.d);
         walk(group, local, local_prepared.inv_d, closest.t, [&](uint32_t j) {
             if (accept(group.prims[j].shape) &&

@@ -140,9 +140,9 @@ int Scene::add_shape_box(const Box &b, const ShapeInfo &info) {
     return id;
 }
 
-int Scene::add_instance(int group, const Transform &to_world, const Transform &to_local) {
+int Scene::add_instance(int group, const Transform &to_world, const Transform &to_local, MotionKeys motion) {
     geometry_built = built = false;
-    return geometry.add_instance(group, to_world, to_local);
+    return geometry.add_instance(group, to_world, to_local, std::move(motion));
 }
 
 namespace {
@@ -250,8 +250,8 @@ void build_sky_maps(const Scene &scene, const RenderContext *previous, RenderCon
 
 }  // namespace
 
-void Scene::set_instance(int k, const Transform &to_world) {
-    geometry.set_instance(k, to_world, to_world.inverse());
+void Scene::set_instance(int k, const Transform &to_world, MotionKeys motion) {
+    geometry.set_instance(k, to_world, to_world.inverse(), std::move(motion));
     built = false;
 }
 
@@ -286,6 +286,8 @@ void Scene::build() {
         const BSDF &b = bsdfs[size_t(s.bsdf)];
         return is_null(b) || is_layered(b) || s.hides_from(RayKind::Shadow);
     });
+    c.motion = camera.motion.moves() || std::any_of(geometry.instances.begin(), geometry.instances.end(),
+                                                    [](const Instance &i) { return i.motion.moves(); });
     const int enclosure = geometry.enclosure();
     c.enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
     build_sky_maps(*this, &context, c);
@@ -385,7 +387,7 @@ bool Scene::surface_on_boundary(const Ray &ray, const Intersection &its, Interse
     // Along the ray, a few epsilons of distance from the plane on either side (more where
     // the ray grazes it, up to a limit).
     const Real delta = 4 * ray_epsilon(its.p) / std::max(std::abs(dot(ray.d, its.n)), Real(1e-2));
-    const Ray probe{its.p - ray.d * delta, ray.d, 0, 2 * delta};
+    const Ray probe{its.p - ray.d * delta, ray.d, 0, 2 * delta, ray.time};
     if (!geometry.intersect_except(probe, its.shape, out) || is_null(bsdfs[size_t(shapes[size_t(out.shape)].bsdf)]))
         return false;
     out.t = its.t + (out.t - delta);
