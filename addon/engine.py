@@ -7,7 +7,7 @@ import time
 import bpy
 import numpy as np
 
-from .export import ExportError, camera, export_scene
+from .export import ExportError, camera, export_scene, motion
 
 
 class VolpathRenderEngine(bpy.types.RenderEngine):
@@ -40,7 +40,7 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene
         settings = scene.volpath
         try:
-            exported = export_scene(depsgraph)
+            exported = _export_blurred(self, depsgraph)
             for message in exported.warnings:
                 self.report({"WARNING"}, f"Volpath: {message}")
             for message in exported.notes:
@@ -112,6 +112,21 @@ class VolpathRenderEngine(bpy.types.RenderEngine):
         if target is not None:
             samples = f"error {100 * stats['error']:.2g} %, {stats['spp_min']}-{stats['spp_max']} spp"
         self.update_stats("", f"Volpath | {samples} | {tracer} | {stats['seconds']:.1f} s")
+
+
+def _export_blurred(engine, depsgraph):
+    """The scene at the render's frame, with the motion keys its Motion Blur settings ask for
+    (the engine evaluating the shutter's sub-frames)."""
+
+    def depsgraph_at(frame, subframe):
+        engine.frame_set(frame, subframe=subframe)
+        return depsgraph
+
+    scene = depsgraph.scene
+    blur = motion.sample(scene, depsgraph_at, scene.frame_current)
+    exported = export_scene(depsgraph, instanced=blur.objects if blur else ())
+    motion.attach(exported, blur)
+    return exported
 
 
 def _viewport_update(engine, context, depsgraph):

@@ -43,11 +43,13 @@ class Exported:
     ``suns``: keys of the sun emitters, with the Blender objects they came from;
     ``lamps``: the same for every point and sun emitter of a lamp that is no instance (an
     animation follows their settings frame by frame);
-    ``sequences``: {key: volume object} for the VDB sequences (files change with the frame)."""
+    ``sequences``: {key: volume object} for the VDB sequences (files change with the frame);
+    ``placed``: {key: Blender object} for the instances that objects became (not their
+    particles' or collections' instances), which motion keys move (motion.attach)."""
 
-    def __init__(self, scene, report, suns, lamps, sequences):
+    def __init__(self, scene, report, suns, lamps, sequences, placed):
         self.scene, self.warnings, self.notes = scene, report.warnings, report.notes
-        self.suns, self.lamps, self.sequences = suns, lamps, sequences
+        self.suns, self.lamps, self.sequences, self.placed = suns, lamps, sequences, placed
 
 
 _CONVERTIBLE = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -128,7 +130,8 @@ def export_scene(depsgraph, mesh_cache=None, instanced=(), final=False):
                     sequences[k] = obj.original.name
         elif obj.type not in ("CAMERA", "EMPTY", "ARMATURE", "LIGHT_PROBE", "SPEAKER", "LATTICE"):
             report.warn(f"object '{obj.name}': {obj.type.lower()} objects are not supported (skipped)")
-    return Exported(_place_meshes(d, set(instanced)), report, suns, lamps, sequences)
+    placed, placed_objects = _place_meshes(d, set(instanced))
+    return Exported(placed, report, suns, lamps, sequences, placed_objects)
 
 
 def shown_in_render(obj):
@@ -151,17 +154,19 @@ class _Placed:
     datablock, its materials and ray visibility), or None where it cannot be instanced (it
     emits or holds a medium)."""
 
-    def __init__(self, key, parts, to_world, name):
+    def __init__(self, key, parts, to_world, name, is_instance):
         self.key, self.parts, self.to_world, self.name = key, parts, to_world, name
+        self.is_instance = is_instance  # of a particle system or a collection
 
 
 def _place_meshes(d, instanced):
     """The scene with each mesh object in place: meshes that several object instances share
     (linked duplicates, collection, particle and geometry-node instances), and the objects
     named in ``instanced``, as one shapegroup and an instance per object; the others as
-    world-placed shapes, one per material."""
+    world-placed shapes, one per material. Returns it and {instance key: Blender object}
+    for the instances of objects themselves."""
     counts = Counter(v.key for v in d.values() if isinstance(v, _Placed) and v.key is not None)
-    out, groups = {}, {}
+    out, groups, objects = {}, {}, {}
     for k, v in d.items():
         if not isinstance(v, _Placed):
             out[k] = v
@@ -172,11 +177,13 @@ def _place_meshes(d, instanced):
                 for name, shape in v.parts:  # (two slots may hold one material)
                     group[_unique(name, group)] = shape
             out[k] = {"type": "instance", "group": {"type": "ref", "id": groups[v.key]}, "to_world": v.to_world}
+            if not v.is_instance:
+                objects[k] = v.name
         else:
             for name, shape in v.parts:
                 part = k if len(v.parts) == 1 else _unique(f"{k}.{name}", d.keys() | out.keys())
                 out[part] = dict(shape, to_world=v.to_world)
-    return out
+    return out, objects
 
 
 def _volume_shape(obj, matrix_world, medium, settings, report, exterior):
@@ -251,7 +258,11 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
         shapes.append((m.name if m else str(index), shape))
         names.append(m.name if m else None)
     return _Placed(
-        (key, tuple(names), hidden) if shared else None, shapes, convert.matrix(inst.matrix_world), obj.original.name
+        (key, tuple(names), hidden) if shared else None,
+        shapes,
+        convert.matrix(inst.matrix_world),
+        obj.original.name,
+        inst.is_instance,
     )
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from pipeline.frames import ANIMATION_FILE, SCENE_FILE
 
-from . import ExportError, camera, drop_meshes, export_scene, export_volume, lights, shown_in_render
+from . import ExportError, camera, drop_meshes, export_scene, export_volume, lights, motion, shown_in_render
 
 
 def frame_list(scene, frames=None, step=None):
@@ -38,11 +38,11 @@ def export_animation(scene, frames, directory):
     from volpath.xml_writer import write_entries
 
     scan = _scan(scene, frames)
-    moving = scan.objects("placement", "shape")
+    moving = scan.objects("placement", "shape") | {name for m in scan.blur.values() if m for name in m.objects}
     caches, warnings = {"meshes": {}, "digests": {}}, []
     current = scene.frame_current
     try:
-        first, exported = _frame_entries(scene, frames[0], directory, moving, caches, warnings)
+        first, exported = _frame_entries(scene, frames[0], directory, moving, caches, warnings, scan.blur[frames[0]])
         whole = _changed_frames(scene, scan, first, directory, moving, caches, warnings)
     finally:
         scene.frame_set(current)
@@ -74,10 +74,12 @@ class _Scan:
     """One pass over the frames (_scan): ``frames``, animation.json's per-frame entries (sun
     directions, followed lamps, the camera); ``changed``, {(what, changes): the first frame
     where it differs from the first}, for what animation.json does not follow; ``names``,
-    {what: Blender object}; ``changed_frames``, those where anything of it differs."""
+    {what: Blender object}; ``changed_frames``, those where anything of it differs, or
+    where something moves in the shutter; ``blur``, per frame its motion.Motion (None:
+    motion blur is off)."""
 
     def __init__(self):
-        self.frames, self.changed, self.names, self.changed_frames = [], {}, {}, set()
+        self.frames, self.changed, self.names, self.changed_frames, self.blur = [], {}, {}, set(), {}
 
     @property
     def animated(self):
@@ -106,6 +108,10 @@ def _scan(scene, frames):
 
     from . import Report
 
+    def depsgraph_at(frame, subframe):
+        scene.frame_set(frame, subframe=subframe)
+        return bpy.context.evaluated_depsgraph_get()
+
     followed, scan, first = _followed(scene), _Scan(), None
     current = scene.frame_current
     try:
@@ -131,6 +137,9 @@ def _scan(scene, frames):
                 }
             )
             state = _unfollowed_state(scene, depsgraph, followed, scan.names)
+            scan.blur[f] = blur = motion.sample(scene, depsgraph_at, f)  # (back at f after)
+            if blur is not None and blur.moves() and f != frames[0]:
+                scan.changed_frames.add(f)  # its motion keys are its own
             if first is None:
                 first = state
                 continue
@@ -143,9 +152,10 @@ def _scan(scene, frames):
     return scan
 
 
-def _frame_entries(scene, frame, directory, moving, caches, warnings):
+def _frame_entries(scene, frame, directory, moving, caches, warnings, blur):
     """The scene at `frame` as XML entries ({key: text}, xml_writer.scene_entries), its
-    files written into `directory` by content; objects in `moving` as instances. `caches`:
+    files written into `directory` by content; objects in `moving` as instances, with the
+    motion keys of `blur` (motion.Motion). `caches`:
     the meshes' triangles and the arrays' digests, kept from frame to frame. Returns the
     entries and the Exported; its warnings not yet in `warnings` are added."""
     import bpy
@@ -154,6 +164,7 @@ def _frame_entries(scene, frame, directory, moving, caches, warnings):
 
     scene.frame_set(frame)  # (export_animation sets the current frame back once)
     exported = export_scene(bpy.context.evaluated_depsgraph_get(), caches["meshes"], instanced=moving, final=True)
+    motion.attach(exported, blur)
     warnings += [w for w in exported.warnings if w not in warnings]
     return scene_entries(exported.scene, directory, by_content=True, digests=caches["digests"]), exported
 
@@ -173,7 +184,7 @@ def _changed_frames(scene, scan, first, directory, moving, caches, warnings):
         if f not in scan.changed_frames:
             continue
         drop_meshes(caches["meshes"], deforming)
-        entries, _ = _frame_entries(scene, f, directory, moving, caches, warnings)
+        entries, _ = _frame_entries(scene, f, directory, moving, caches, warnings, scan.blur[f])
         if entries.keys() != first.keys():
             entry["scene"] = f"scene_{f:04d}.xml"
             write_entries(entries, directory, entry["scene"])

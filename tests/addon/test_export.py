@@ -598,3 +598,57 @@ def test_an_object_shown_and_hidden_makes_its_frames_whole(blank, tmp_path):
         blank.frame_set(f)
         fresh = write_directory(export_scene(depsgraph(), final=True), tmp_path / f"f{f}")  # as F12's depsgraph
         assert np.array_equal(image, volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)), f
+
+
+def blurred_export(scene, frame, instanced=None):
+    """The scene at `frame` with its motion keys, as F12's engine exports it (the scene's
+    frame_set standing in for the engine's); `instanced`: as an animation instanced them."""
+    from addon.export import motion
+
+    def depsgraph_at(f, subframe):
+        scene.frame_set(f, subframe=subframe)
+        return depsgraph()
+
+    blur = motion.sample(scene, depsgraph_at, frame)
+    exported = export_scene(depsgraph(), instanced=blur.objects if instanced is None else instanced)
+    motion.attach(exported, blur)
+    return exported
+
+
+def test_motion_blur_reaches_f12_and_the_pipeline_alike(blank, tmp_path):
+    """Motion Blur on (shutter 1 frame, centred): a cube keyframed across the floor and a
+    panning camera get motion keys at the shutter's opening, middle and closing; F12's
+    image is the bits of that scene rendered with F12's seed, blurred (it differs from the
+    still frame), and each pipeline frame the bits of the same export at its frame, the
+    worker updating the camera's and the cube's keys in place."""
+    cam = add_camera(blank)
+    bpy.ops.object.light_add(type="SUN")
+    bpy.ops.mesh.primitive_plane_add(size=20)
+    bpy.ops.mesh.primitive_cube_add(location=(-3, 0, 1))
+    cube = bpy.context.object
+    keyframed(cube, "location", (-3, 0, 1), (3, 0, 1))
+    keyframed(cam, "location", (0, -8, 3), (1, -8, 3))
+    blank.render.use_motion_blur, blank.render.motion_blur_shutter = True, 1.0
+    blank.volpath.seed = 5
+    blank.frame_set(3)
+    exported = blurred_export(blank, 3)
+    assert exported.scene["Cube"]["motion"].shape == (3, 4, 4) and exported.scene["camera"]["motion"].shape == (3, 4, 4)
+    path = write_directory(exported, tmp_path / "blurred")
+    f12 = render_f12(blank, tmp_path / "f12.exr")
+    assert np.array_equal(f12, volpath.render(volpath.load_file(path), seed=5, threads=1))
+    blank.render.use_motion_blur = False
+    still = render_f12(blank, tmp_path / "still.exr")
+    assert np.abs(f12 - still).max() > 0.1  # the streak
+    blank.render.use_motion_blur = True
+    anim = tmp_path / "anim"
+    export_animation(blank, [1, 3, 5], str(anim))
+    animation = json.loads((anim / "animation.json").read_text())
+    assert animation["instanced"] == ["Cube"]
+    assert all("updates" in e for e in animation["frames"][1:])
+    from pipeline.frames import render_frame
+
+    for f in (1, 3, 5):
+        image, meta = render_frame(str(anim), f, 4, threads=1)
+        fresh = write_directory(blurred_export(blank, f, animation["instanced"]), tmp_path / f"f{f}")
+        assert np.array_equal(image, volpath.render(volpath.load_file(fresh), spp=4, seed=f, threads=2)), f
+        assert meta["scene_built"] == (f == 1)
