@@ -85,15 +85,20 @@ def test_missing_vdb_is_a_clear_error(blank, tmp_path, capfd):
     assert "Volpath: volume 'gone': VDB file" in out.out + out.err  # ... and the report says why
 
 
-def test_vdb_sequence_follows_the_frame(blank, tmp_path):
+def puff_sequence(directory):
+    """A two-frame VDB sequence of a cloud (three times denser at frame 2), imported."""
     base = _cloud()
     for frame, scale in ((1, 1.0), (2, 3.0)):
-        write_vdb(tmp_path / f"puff_{frame:04d}.vdb", base * scale)
+        write_vdb(directory / f"puff_{frame:04d}.vdb", base * scale)
     bpy.ops.object.volume_import(
-        filepath=str(tmp_path / "puff_0001.vdb"),
-        directory=str(tmp_path),
+        filepath=str(directory / "puff_0001.vdb"),
+        directory=str(directory),
         files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}],
     )
+
+
+def test_vdb_sequence_follows_the_frame(blank, tmp_path):
+    puff_sequence(tmp_path)
     volume = bpy.context.object
     volume.data.materials.append(volume_material("smoke"))
     assert volume.data.is_sequence
@@ -188,14 +193,7 @@ def test_a_vdb_sequence_and_a_moving_object_reach_the_video_as_f12_renders_them(
     from addon.export.animation import export_animation
     from pipeline.frames import render_frame
 
-    base = _cloud()
-    for frame, scale in ((1, 1.0), (2, 3.0)):
-        write_vdb(tmp_path / f"puff_{frame:04d}.vdb", base * scale)
-    bpy.ops.object.volume_import(
-        filepath=str(tmp_path / "puff_0001.vdb"),
-        directory=str(tmp_path),
-        files=[{"name": "puff_0001.vdb"}, {"name": "puff_0002.vdb"}],
-    )
+    puff_sequence(tmp_path)
     bpy.context.object.data.materials.append(volume_material("smoke"))
     bpy.ops.mesh.primitive_cube_add(size=0.5, location=(-1, 0, 0))
     cube = bpy.context.object

@@ -56,6 +56,17 @@ def mesh(positions, triangles, normals, uvs, bsdf):
     return {"type": "mesh", "positions": positions, "indices": triangles, "normals": normals, "uvs": uvs, "bsdf": bsdf}
 
 
+def sensor(res, spp):
+    """The tests' camera, looking down at the origin from -y."""
+    return {
+        "type": "perspective",
+        "fov": 50.0,
+        "to_world": S.lookat([0, -6, 4], [0, 0, 0], [0, 0, 1]),
+        "film": {"type": "hdrfilm", "width": res, "height": res},
+        "sampler": {"type": "independent", "sample_count": spp},
+    }
+
+
 def scene_pair(maps, res=24, spp=8):
     """The same objects as instances of one group, and flattened into world-space meshes."""
     positions, triangles, normals, uvs = bump()
@@ -63,13 +74,7 @@ def scene_pair(maps, res=24, spp=8):
     base = {
         "type": "scene",
         "integrator": {"type": "volpath", "max_depth": 4},
-        "sensor": {
-            "type": "perspective",
-            "fov": 50.0,
-            "to_world": S.lookat([0, -6, 4], [0, 0, 0], [0, 0, 1]),
-            "film": {"type": "hdrfilm", "width": res, "height": res},
-            "sampler": {"type": "independent", "sample_count": spp},
-        },
+        "sensor": sensor(res, spp),
         "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [1.0, 1.0, 1.0]}},
         "floor": {"type": "rectangle", "to_world": placed([6.0, 6.0, 1.0], [0.0, 0.0, -1.5])},
     }
@@ -275,13 +280,7 @@ def group_scene(keys, res=24, spp=8, sky=1.0):
     d = {
         "type": "scene",
         "integrator": {"type": "volpath", "max_depth": 4},
-        "sensor": {
-            "type": "perspective",
-            "fov": 50.0,
-            "to_world": S.lookat([0, -6, 4], [0, 0, 0], [0, 0, 1]),
-            "film": {"type": "hdrfilm", "width": res, "height": res},
-            "sampler": {"type": "independent", "sample_count": spp},
-        },
+        "sensor": sensor(res, spp),
         "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [sky, sky, sky]}},
         "sun": {
             "type": "directional",
