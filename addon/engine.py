@@ -124,7 +124,7 @@ def _export_blurred(engine, depsgraph):
 
     scene = depsgraph.scene
     blur = motion.sample(scene, depsgraph_at, scene.frame_current)
-    exported = export_scene(depsgraph, instanced=blur.objects if blur else ())
+    exported = export_scene(depsgraph, instanced=blur.instanced() if blur else ())
     motion.attach(exported, blur)
     return exported
 

@@ -25,7 +25,8 @@ names ``updates``, a scene file holding the top-level entries of scene.xml that 
 that frame (an instance's map, a group's deformed mesh, a shape's material, the world, a
 lamp), which replace scene.xml's; or, where objects appear or vanish, ``scene``, the whole
 frame's scene file. ``instanced``: the objects exported as instances of a group of their
-own because they move or deform. A worker applies a frame's changes to the scene it holds
+own because they move or deform (between frames or, with motion blur, in a frame's
+shutter, whose motion keys the frame's entries carry). A worker applies a frame's changes to the scene it holds
 (volpath's Scene.update: in place where it can, else the frame's scene is built anew).
 
 The Blender add-on writes the directory (``addon/export/animation.py``). ``render_frame``

@@ -185,11 +185,17 @@ class _Writer:
         if kind is None:
             raise TypeError(f"'{key}': unknown plugin type {d.get('type')!r}")
         d = dict(d)
-        if d["type"] == "mesh":  # arrays become a PLY file
+        if d["type"] == "mesh":  # arrays become a PLY file (and one a motion key, deformed)
             arrays = d.pop("positions"), d.pop("indices"), d.pop("normals", None), d.pop("uvs", None)
             rel = self.asset("meshes", key, "ply", arrays)
             self.write(rel, lambda path: write_ply(path, *arrays))
             d["type"], d["filename"] = "ply", rel
+            if "motion" in d:
+                keys = []
+                for positions in d.pop("motion"):
+                    keys.append(self.asset("meshes", f"{key}_key", "ply", (positions, arrays[1])))
+                    self.write(keys[-1], lambda path, p=positions: write_ply(path, p, arrays[1]))
+                d["motion"] = ", ".join(keys)
         elif d["type"] == "bitmap" and "data" in d:  # texels become a PNG (8-bit) or an EXR
             texels = np.asarray(d.pop("data"))
             rel = self.asset("textures", key, "png" if texels.dtype == np.uint8 else "exr", (texels,))

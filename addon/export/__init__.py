@@ -205,6 +205,17 @@ def export_volume(depsgraph, name):
     )
 
 
+def uv_map_of(obj, material, report):
+    """The UV map an object's triangles carry: the one its materials' textures read (the
+    first by name where they differ, reported); None where none reads one."""
+    uv_maps = {material(s.material).uv_map for s in obj.material_slots} - {None}
+    uv_map = min(uv_maps) if uv_maps else None
+    if len(uv_maps) > 1:
+        shown = uv_map or "the render one"
+        report.warn(f"object '{obj.name}': its materials read different UV maps; all read '{shown}'")
+    return uv_map
+
+
 def drop_meshes(mesh_cache, objects):
     """Forget the cached triangles of these Blender objects (their geometry changed)."""
     names = {o.name for o in objects} | {o.data.name for o in objects if getattr(o, "data", None) is not None}
@@ -217,11 +228,7 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
     material; the triangle arrays of a mesh datablock are computed once and shared by its
     instances (unless modifiers differ)."""
     slots = [s.material for s in obj.material_slots]
-    uv_maps = {material(m)[0].uv_map for m in slots} - {None}
-    uv_map = min(uv_maps) if uv_maps else None
-    if len(uv_maps) > 1:
-        shown = uv_map or "the render one"
-        report.warn(f"object '{obj.name}': its materials read different UV maps; all read '{shown}'")
+    uv_map = uv_map_of(obj, lambda m: material(m)[0], report)
     data = obj.data.original if obj.data is not None else obj.original
     key = (
         data.name,

@@ -38,7 +38,7 @@ def export_animation(scene, frames, directory):
     from volpath.xml_writer import write_entries
 
     scan = _scan(scene, frames)
-    moving = scan.objects("placement", "shape") | {name for m in scan.blur.values() if m for name in m.objects}
+    moving = scan.objects("placement", "shape") | {name for m in scan.blur.values() if m for name in m.instanced()}
     caches, warnings = {"meshes": {}, "digests": {}}, []
     current = scene.frame_current
     try:
@@ -102,8 +102,9 @@ def _followed(scene):
 
 def _scan(scene, frames):
     """Per frame, the direction of every Sun lamp, the point and sun lamps' emitters and the
-    camera's to_world; and what else changes over `frames`, found by comparing what Blender
-    evaluates at each frame with the first (_unfollowed_state)."""
+    camera's to_world; what else changes over `frames`, found by comparing what Blender
+    evaluates at each frame with the first (_unfollowed_state); and with Motion Blur on,
+    what moves in each frame's shutter (motion.sample)."""
     import bpy
 
     from . import Report
@@ -244,7 +245,7 @@ def _unfollowed_state(scene, depsgraph, followed, names):
             )
         elif obj.type == "CAMERA":
             state[(what, "settings")] = [getattr(ob.data, a) for a in CAMERA_SETTINGS]
-        elif obj.type == "MESH" and _may_deform(obj):
+        elif motion.may_deform(obj):
             mesh = ob.to_mesh()  # evaluated: modifiers and shape keys applied
             co = np.empty(3 * len(mesh.vertices))
             mesh.vertices.foreach_get("co", co)
@@ -262,12 +263,6 @@ def _unfollowed_state(scene, depsgraph, followed, names):
     if scene.world is not None:
         state[(f"world '{scene.world.name}'", "node values")] = _node_values(scene.world.node_tree)
     return state
-
-
-def _may_deform(obj):
-    """Whether an object's mesh can change from frame to frame: modifiers (an armature's
-    among them), shape keys, or an armature parent."""
-    return bool(obj.modifiers) or obj.data.shape_keys is not None or (obj.parent and obj.parent.type == "ARMATURE")
 
 
 def _materials(scene):

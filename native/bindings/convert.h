@@ -66,10 +66,22 @@ inline std::vector<Vec3> points(const DoubleArray &a, const char *what) {
 
 using TriangleArray = py::array_t<uint32_t, py::array::c_style | py::array::forcecast>;
 
-// A mesh from its arrays: positions (n, 3), triangles (m, 3), normals like positions, uvs (n, 2).
+// A mesh from its arrays: positions (n, 3), triangles (m, 3), normals like positions, uvs (n, 2);
+// motion: the positions at the shutter's keys (K, n, 3), for a deforming mesh.
 inline TriangleMesh triangle_mesh(const DoubleArray &positions, const TriangleArray &triangles,
-                                  const std::optional<DoubleArray> &normals, const std::optional<DoubleArray> &uvs) {
+                                  const std::optional<DoubleArray> &normals, const std::optional<DoubleArray> &uvs,
+                                  const std::optional<DoubleArray> &motion = std::nullopt) {
     TriangleMesh mesh;
+    if (motion) {
+        if (motion->ndim() != 3 || motion->shape(1) != positions.shape(0) || motion->shape(2) != 3)
+            throw std::invalid_argument("motion must have shape (K, n, 3), every position at each key");
+        mesh.motion.resize(size_t(motion->shape(0)));
+        for (size_t k = 0; k < mesh.motion.size(); ++k) {
+            mesh.motion[k].resize(size_t(motion->shape(1)));
+            for (size_t i = 0; i < mesh.motion[k].size(); ++i)
+                mesh.motion[k][i] = {motion->at(k, i, 0), motion->at(k, i, 1), motion->at(k, i, 2)};
+        }
+    }
     mesh.positions = points(positions, "positions");
     if (normals) mesh.normals = points(*normals, "normals");
     if (uvs) {

@@ -503,17 +503,18 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions, const TriangleArray &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
                std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided,
-               double emitter_spread, int emitter_hidden_from, int group) {
+               double emitter_spread, int emitter_hidden_from, int group, std::optional<DoubleArray> motion) {
                 const AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
                                             uint8_t(emitter_hidden_from)};
-                return s.add_shape_mesh(triangle_mesh(positions, triangles, normals, uvs),
+                return s.add_shape_mesh(triangle_mesh(positions, triangles, normals, uvs, motion),
                                         shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
                                         radiance ? &emission : nullptr, group);
             },
             py::arg("positions"), py::arg("triangles"), py::arg("normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
             py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false,
-            py::arg("emitter_spread") = kPi, py::arg("emitter_hidden_from") = 0, py::arg("group") = -1)
+            py::arg("emitter_spread") = kPi, py::arg("emitter_hidden_from") = 0, py::arg("group") = -1,
+            py::arg("motion") = py::none())
         .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
         .def(
             "set_instances",
@@ -539,13 +540,13 @@ PYBIND11_MODULE(_core, m) {
         .def(
             "set_group_mesh",
             [](Scene &s, int shape, const DoubleArray &positions, const TriangleArray &triangles,
-               std::optional<DoubleArray> normals, std::optional<DoubleArray> uvs) {
-                s.set_group_mesh(shape, triangle_mesh(positions, triangles, normals, uvs));
+               std::optional<DoubleArray> normals, std::optional<DoubleArray> uvs, std::optional<DoubleArray> motion) {
+                s.set_group_mesh(shape, triangle_mesh(positions, triangles, normals, uvs, motion));
             },
             "Replaces a shape group's mesh (a deformed mesh at an animation's frame); build() then rebuilds that "
             "group's BVH and refits the scene's.",
             py::arg("shape"), py::arg("positions"), py::arg("triangles"), py::arg("normals") = py::none(),
-            py::arg("uvs") = py::none())
+            py::arg("uvs") = py::none(), py::arg("motion") = py::none())
         .def("replace_bsdf", &Scene::replace_bsdf,
              "Gives BSDF `bsdf` the parameters of the last one added, which is taken off (a material's values at an "
              "animation's frame; a leaf BSDF without textures).",

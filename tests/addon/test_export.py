@@ -610,17 +610,18 @@ def blurred_export(scene, frame, instanced=None):
         return depsgraph()
 
     blur = motion.sample(scene, depsgraph_at, frame)
-    exported = export_scene(depsgraph(), instanced=blur.objects if instanced is None else instanced)
+    exported = export_scene(depsgraph(), instanced=blur.instanced() if instanced is None else instanced)
     motion.attach(exported, blur)
     return exported
 
 
 def test_motion_blur_reaches_f12_and_the_pipeline_alike(blank, tmp_path):
-    """Motion Blur on (shutter 1 frame, centred): a cube keyframed across the floor and a
-    panning camera get motion keys at the shutter's opening, middle and closing; F12's
+    """Motion Blur on (shutter 1 frame, centred): a cube keyframed across the floor, a
+    panning camera and a plane deformed by a shape key get motion keys at the shutter's
+    opening, middle and closing (the plane its positions); F12's
     image is the bits of that scene rendered with F12's seed, blurred (it differs from the
     still frame), and each pipeline frame the bits of the same export at its frame, the
-    worker updating the camera's and the cube's keys in place."""
+    worker updating the camera's, the cube's and the plane's keys in place."""
     cam = add_camera(blank)
     bpy.ops.object.light_add(type="SUN")
     bpy.ops.mesh.primitive_plane_add(size=20)
@@ -628,11 +629,19 @@ def test_motion_blur_reaches_f12_and_the_pipeline_alike(blank, tmp_path):
     cube = bpy.context.object
     keyframed(cube, "location", (-3, 0, 1), (3, 0, 1))
     keyframed(cam, "location", (0, -8, 3), (1, -8, 3))
+    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0.5))
+    bulge = bpy.context.object
+    bulge.shape_key_add(name="Basis")
+    key = bulge.shape_key_add(name="Bulge")
+    key.data[0].co.z = 2.0
+    keyframed(key, "value", 0.0, 1.0)
     blank.render.use_motion_blur, blank.render.motion_blur_shutter = True, 1.0
     blank.volpath.seed = 5
     blank.frame_set(3)
     exported = blurred_export(blank, 3)
     assert exported.scene["Cube"]["motion"].shape == (3, 4, 4) and exported.scene["camera"]["motion"].shape == (3, 4, 4)
+    member = next(v for k, v in exported.scene["Plane.001.group"].items() if k != "type")
+    assert member["motion"].shape == (3, *member["positions"].shape)  # deformed in the shutter
     path = write_directory(exported, tmp_path / "blurred")
     f12 = render_f12(blank, tmp_path / "f12.exr")
     assert np.array_equal(f12, volpath.render(volpath.load_file(path), seed=5, threads=1))
@@ -643,7 +652,7 @@ def test_motion_blur_reaches_f12_and_the_pipeline_alike(blank, tmp_path):
     anim = tmp_path / "anim"
     export_animation(blank, [1, 3, 5], str(anim))
     animation = json.loads((anim / "animation.json").read_text())
-    assert animation["instanced"] == ["Cube"]
+    assert animation["instanced"] == ["Cube", "Plane.001"]
     assert all("updates" in e for e in animation["frames"][1:])
     from pipeline.frames import render_frame
 

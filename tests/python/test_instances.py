@@ -365,3 +365,35 @@ def test_motion_keys_round_trip_through_xml_and_are_checked(tmp_path):
         read_xml(uneven, path)
     with pytest.raises(volpath.SceneError, match="'motion' must be two or more 4x4 transforms"):
         volpath.load_dict(dict(d, bump=dict(d["bump"], motion=np.array(keys[:1]))))
+
+
+@pytest.mark.parametrize("time", [0.0, 0.4, 0.75])
+def test_a_deforming_group_mesh_is_hit_where_its_keys_put_it_at_the_ray_s_time(time, tmp_path):
+    """A group's mesh with motion keys (its positions at the shutter's opening, middle and
+    closing): rays at time t meet the mesh whose positions are the keys interpolated at t,
+    to rounding, through the dictionary and through XML (a PLY a key)."""
+    from volpath.xml_writer import write_scene
+
+    positions, triangles, normals, uvs = bump()
+    keys = [positions * [1.0, 1.0, s] + [0.0, 0.2 * s, 0.0] for s in (1.0, -1.0, 2.5)]
+    x = time * 2
+    i = min(int(x), 1)
+    at_t = (1 - (x - i)) * keys[i] + (x - i) * keys[i + 1]
+
+    def scene(positions, motion=None):
+        member = mesh(positions, triangles, normals, uvs, {"type": "diffuse"})
+        if motion is not None:
+            member["motion"] = np.array(motion, dtype=np.float32)
+        return field([STRETCHED], {"type": "shapegroup", "bump": member})
+
+    deforming = scene(np.float32(keys[0]), keys)
+    loaded = volpath.load_file(write_scene(deforming, tmp_path))
+    still = volpath.load_dict(scene(np.float32(at_t)))
+    o, d = random_rays(4000, 5)
+    t_s, _, n_s = _probes.intersect(still.native, o, d)
+    hit = np.isfinite(t_s)
+    assert hit.sum() > 1000
+    for s in (volpath.load_dict(deforming), loaded):
+        t, _, n = _probes.intersect(s.native, o, d, time=time)
+        np.testing.assert_array_equal(np.isfinite(t), hit)
+        np.testing.assert_allclose(t[hit], t_s[hit], rtol=1e-6)  # float32 keys, interpolated in double

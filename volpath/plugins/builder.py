@@ -79,8 +79,9 @@ class Builder:
                 raise SceneError(f"{where(v.get('__loc__'))}cyclic reference")
         return v
 
-    def path(self, p, name):
-        filename = p.str(name)
+    def path(self, p, name, filename=None):
+        """The full path of file parameter `name` (or of `filename`, one of those it lists)."""
+        filename = p.str(name) if filename is None else filename
         full = filename if os.path.isabs(filename) else os.path.join(self.base_dir, filename)
         if not os.path.exists(full):
             raise p.error(f"file '{filename}' not found (looked in {self.base_dir})")
@@ -159,7 +160,7 @@ class Builder:
     def _member_step(self, old, new, mesh=True):
         """A shape given a new BSDF, or (``mesh``: a shape group's member) new mesh data."""
         built = self.built_shapes.get(id(old))
-        mesh_keys = {"positions", "indices", "normals", "uvs", "filename"} if mesh else set()
+        mesh_keys = {"positions", "indices", "normals", "uvs", "filename", "motion"} if mesh else set()
         old_bsdf, new_bsdf = _bsdf_of(self, old), _bsdf_of(self, new)
         if built is None or not _equal(old, new, but=mesh_keys | {"bsdf", *_bsdf_keys(old)}):
             return None

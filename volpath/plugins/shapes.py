@@ -104,8 +104,10 @@ def build(b, d, group=-1):
         bounds = np.array([corners.min(axis=0), corners.max(axis=0)])
         b.summary["shapes"].append({"type": "cube", "box": True, "emitter": False, "bsdf": bsdf_type, "loc": p.loc})
     else:
-        positions, triangles, normals, uvs = mesh_data(b, p, to_world, flip)
-        index = b.native.add_mesh(positions, triangles, normals, uvs=uvs, group=group, **common)
+        positions, triangles, normals, uvs, motion = mesh_data(b, p, to_world, flip)
+        if motion is not None and group < 0:
+            raise p.error("only a shapegroup's meshes deform in the shutter ('motion'): place it by an instance")
+        index = b.native.add_mesh(positions, triangles, normals, uvs=uvs, group=group, motion=motion, **common)
         bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
         b.summary["shapes"].append(
             {
@@ -126,7 +128,9 @@ def build(b, d, group=-1):
 
 
 def mesh_data(b, p, to_world, flip):
-    """(positions, triangles, normals, uvs) of a mesh shape, in the world (or its group)."""
+    """(positions, triangles, normals, uvs, motion) of a mesh shape, in the world (or its
+    group); motion: its positions at the shutter's keys (K, n, 3), or None."""
+    motion = None
     if p.type == "rectangle":
         positions, triangles, normals, uvs = rectangle()
     elif p.type == "cube":
@@ -136,18 +140,30 @@ def mesh_data(b, p, to_world, flip):
         positions, triangles, normals, uvs = load_mesh(path)
         if p.bool("face_normals", False):
             normals = None
+        if p.has("motion"):  # a file a key, each the same mesh deformed
+            keys = [load_mesh(b.path(p, "motion", name.strip())) for name in p.str("motion").split(",")]
+            if len(keys) < 2 or any(k[0].shape != positions.shape or not np.array_equal(k[1], triangles) for k in keys):
+                raise p.error("'motion' names two or more files of the mesh deformed (its vertices and triangles)")
+            motion = np.array([k[0] for k in keys])
     elif p.type == "mesh":  # dictionaries only: numpy arrays in memory (the exporter)
         positions, triangles, normals, uvs = mesh_arrays(p)
+        if p.has("motion"):
+            motion = np.asarray(p.raw("motion"), dtype=np.float64)
+            shaped = motion.ndim == 3 and len(motion) >= 2 and motion.shape[1:] == positions.shape
+            if not shaped or not np.isfinite(motion).all():
+                raise p.error("'motion' must be the positions at two or more keys (K, n, 3)")
     else:
         raise p.error("unknown shape (expected one of: sphere, rectangle, cube, obj, ply, mesh, shapegroup, instance)")
     positions = transform_points(to_world, positions)
+    if motion is not None:
+        motion = np.array([transform_points(to_world, key) for key in motion])
     if normals is not None:
         normals = transform_normals(to_world, normals)
     if flip:
         triangles = triangles[:, ::-1].copy()
         if normals is not None:
             normals = -normals
-    return positions, triangles, normals, uvs
+    return positions, triangles, normals, uvs, motion
 
 
 def shape_group(b, d):

@@ -19,7 +19,22 @@ struct TriangleMesh {
     std::vector<Vec3> normals;  // per vertex, optional (smooth shading)
     std::vector<Vec2> uvs;      // per vertex, optional (texture coordinates)
     std::vector<std::array<uint32_t, 3>> triangles;
-    Real area(size_t i) const;
+    // Deformation blur: the positions at evenly spaced times over the shutter (two or more
+    // keys, each like `positions`), interpolated linearly between them; none: it holds
+    // still. Shading normals stay the frame's.
+    std::vector<std::vector<Vec3>> motion;
+    Real area(size_t i) const;  // (at `positions`)
+    // Triangle i's corners at `time` in the shutter.
+    std::array<Vec3, 3> corners(size_t i, Real time) const {
+        const auto &t = triangles[i];
+        if (motion.empty()) return {positions[t[0]], positions[t[1]], positions[t[2]]};
+        const Real x = std::clamp(time, Real(0), Real(1)) * Real(motion.size() - 1);
+        const size_t k = std::min(size_t(x), motion.size() - 2);
+        const Real f = x - Real(k);
+        std::array<Vec3, 3> c;
+        for (int j = 0; j < 3; ++j) c[size_t(j)] = motion[k][t[size_t(j)]] * (1 - f) + motion[k + 1][t[size_t(j)]] * f;
+        return c;
+    }
 };
 
 struct Sphere {
@@ -206,11 +221,9 @@ private:
 
     Bounds primitive_bounds(const Primitive &p) const;
     bool overlaps_another(const Bounds &box, uint32_t self) const;
-    // A mesh primitive's vertices.
-    std::array<Vec3, 3> triangle(const Primitive &p) const {
-        const TriangleMesh &m = meshes[size_t(shapes[size_t(p.shape)].index)];
-        const auto &t = m.triangles[p.index];
-        return {m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]};
+    // A mesh primitive's vertices at `time` in the shutter.
+    std::array<Vec3, 3> triangle(const Primitive &p, Real time) const {
+        return meshes[size_t(shapes[size_t(p.shape)].index)].corners(p.index, time);
     }
     // The BVH over `prims` (taken).
     Bvh build_bvh(std::vector<Primitive> prims) const;

@@ -105,7 +105,10 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
         b = corner_bounds(boxes[s.index]);
     } else {
         const TriangleMesh &m = meshes[s.index];
-        for (uint32_t v : m.triangles[p.index]) b.extend(m.positions[v]);
+        for (uint32_t v : m.triangles[p.index]) {
+            b.extend(m.positions[v]);
+            for (const auto &key : m.motion) b.extend(key[v]);  // (a deformed triangle's corners move on lines)
+        }
     }
     return b;
 }
@@ -157,7 +160,7 @@ std::vector<Geometry::Primitive> Geometry::group_prims(int group) const {
         }
         const auto &m = meshes[shapes[s].index];
         for (uint32_t i = 0; i < m.triangles.size(); ++i)
-            if (m.area(i) > 0) list.push_back({s, i});
+            if (m.area(i) > 0 || !m.motion.empty()) list.push_back({s, i});
     }
     return list;
 }
@@ -580,7 +583,7 @@ bool Geometry::intersect_primitive(const Bvh &bvh, uint32_t i, const Ray &ray, c
         if (!(t > ray.t_min && t < t_max)) return false;
         hit.t = t;
     } else {
-        const std::array<Vec3, 3> tri = triangle(bvh.prims[i]);
+        const std::array<Vec3, 3> tri = triangle(bvh.prims[i], ray.time);
         const Vec3 a = tri[0] - ray.o, b = tri[1] - ray.o, c = tri[2] - ray.o;
         const Real ax = a[sr.kx] - sr.sx * a[sr.kz], ay = a[sr.ky] - sr.sy * a[sr.kz];
         const Real bx = b[sr.kx] - sr.sx * b[sr.kz], by = b[sr.ky] - sr.sy * b[sr.kz];
@@ -643,7 +646,8 @@ Vec2 Geometry::uv(const Intersection &its) const {
     // them would be larger for every ray, textured or not).
     const TriangleMesh &m = meshes[size_t(s.index)];
     const auto &tri = m.triangles[its.prim];
-    const Vec3 &p0 = m.positions[tri[0]], e1 = m.positions[tri[1]] - p0, e2 = m.positions[tri[2]] - p0;
+    const std::array<Vec3, 3> c = m.corners(its.prim, its.time);
+    const Vec3 &p0 = c[0], e1 = c[1] - p0, e2 = c[2] - p0;
     const Vec3 d = p - p0;
     const Real d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), det = d11 * d22 - d12 * d12;
     if (!(det > 0)) return m.uvs.empty() ? Vec2{} : m.uvs[tri[0]];
@@ -674,7 +678,7 @@ void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) cons
     } else {
         const TriangleMesh &m = meshes[size_t(s.index)];
         const auto &tri = m.triangles[its.prim];
-        const Vec3 &p0 = m.positions[tri[0]], &p1 = m.positions[tri[1]], &p2 = m.positions[tri[2]];
+        const auto [p0, p1, p2] = m.corners(its.prim, its.time);
         if (m.uvs.empty()) {  // uv = (b1, b2)
             dpdu = p1 - p0, dpdv = p2 - p0;
         } else {
@@ -719,7 +723,7 @@ void Geometry::finish(const Hit &hit, const Ray &ray, Intersection &its) const {
         its.p = sp.center + n * sp.radius;  // re-projected onto the surface
         its.n = its.ns = sp.flip_normals ? -n : n;
     } else {
-        const std::array<Vec3, 3> v = triangle(prim);
+        const std::array<Vec3, 3> v = triangle(prim, ray.time);
         its.p = v[0] * hit.b0 + v[1] * hit.b1 + v[2] * hit.b2;
         its.n = normalize(cross(v[1] - v[0], v[2] - v[0]));
         its.ns = its.n;

@@ -97,6 +97,9 @@ void check_mesh(const TriangleMesh &mesh) {
             if (v >= mesh.positions.size()) throw std::out_of_range("triangle index out of range");
     if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
         throw std::invalid_argument("need one normal per vertex");
+    if (mesh.motion.size() == 1) throw std::invalid_argument("a motion needs at least two keys");
+    for (const auto &key : mesh.motion)
+        if (key.size() != mesh.positions.size()) throw std::invalid_argument("each motion key needs every position");
 }
 
 AreaLight area_light(int shape, const AreaEmission &e) {
@@ -111,6 +114,9 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const AreaEm
     check_info(*this, info);
     if (group >= 0 && (emission || info.medium_interface))
         throw std::invalid_argument("a shape group's shapes can neither emit nor bound a medium");
+    // (Lights and media boundaries hold still: their sampling and containment know no time.)
+    if (group < 0 && !mesh.motion.empty())
+        throw std::invalid_argument("only a shape group's meshes deform in the shutter");
     check_mesh(mesh);
     geometry_built = false;
     const int id = geometry.add_mesh(std::move(mesh), group);
@@ -286,8 +292,11 @@ void Scene::build() {
         const BSDF &b = bsdfs[size_t(s.bsdf)];
         return is_null(b) || is_layered(b) || s.hides_from(RayKind::Shadow);
     });
-    c.motion = camera.motion.moves() || std::any_of(geometry.instances.begin(), geometry.instances.end(),
-                                                    [](const Instance &i) { return i.motion.moves(); });
+    c.motion = camera.motion.moves() ||
+               std::any_of(geometry.instances.begin(), geometry.instances.end(),
+                           [](const Instance &i) { return i.motion.moves(); }) ||
+               std::any_of(geometry.meshes.begin(), geometry.meshes.end(),
+                           [](const TriangleMesh &m) { return !m.motion.empty(); });
     const int enclosure = geometry.enclosure();
     c.enclosed_medium = enclosure >= 0 && shapes[enclosure].medium_interface ? shapes[enclosure].interior : -2;
     build_sky_maps(*this, &context, c);
