@@ -61,10 +61,8 @@ def sample(scene, depsgraph_at, frame):
     times = shutter_times(scene.render, frame)
     if times is None:
         return None
-    blurred = [
-        o for o in scene.objects if o.type in _BLURRED and getattr(getattr(o, "cycles", None), "use_motion_blur", True)
-    ]
-    deformable = [o for o in blurred if may_deform(o) and getattr(o.cycles, "use_deform_motion", True)]
+    blurred = [o for o in scene.objects if o.type in _BLURRED and _switch(o, "use_motion_blur")]
+    deformable = [o for o in blurred if may_deform(o) and _switch(o, "use_deform_motion")]
     uv_maps = {o.name: _uv_map(o) for o in deformable}
     maps, cams, parts = {o.name: [] for o in blurred}, [], {o.name: [] for o in deformable}
     try:
@@ -117,6 +115,11 @@ def attach(exported, motion):
                 d[group_key][m]["positions"].shape == k.shape[1:] for m, k in zip(members, keys)
             ):
                 d[group_key] = dict(d[group_key], **{m: dict(d[group_key][m], motion=k) for m, k in zip(members, keys)})
+
+
+def _switch(obj, name):
+    """An object's Motion Blur switch (Object > Motion Blur, Cycles' settings): on unless off."""
+    return getattr(getattr(obj, "cycles", None), name, True)
 
 
 def _still(keys):

@@ -215,7 +215,7 @@ private:
     // its leaf (kNoPrim: none, its group is empty).
     std::vector<uint32_t> parent_, instance_leaf_;
     void index_for_refit();
-    std::vector<Primitive> group_prims(int group) const;
+    void append_prims(int shape, std::vector<Primitive> &list) const;
     bool holds(uint32_t solid, const Primitive &p) const;
     bool moves_away_from_enclosure(const Ray &ray) const;
 

@@ -92,8 +92,11 @@ Bounds Geometry::primitive_bounds(const Primitive &p) const {
     if (p.shape < 0) {  // an instance: its group's bounds' corners, mapped (at each key of a motion)
         const Instance &inst = instances[p.index];
         const Bounds local = groups_[size_t(inst.group)].bounds;
-        for (const Transform &m : inst.motion.moves() ? inst.motion.keys : std::vector<Transform>{inst.to_world})
+        auto placed = [&](const Transform &m) {
             for (int k = 0; k < 8; ++k) b.extend(m.point(bounds_corner(local, k)));
+        };
+        if (!inst.motion.moves()) placed(inst.to_world);
+        for (const Transform &m : inst.motion.keys) placed(m);
         return b;
     }
     const ShapeGeometry &s = shapes[p.shape];
@@ -148,29 +151,27 @@ Geometry::Bvh Geometry::build_bvh(std::vector<Primitive> prims) const {
     return bvh;
 }
 
-// A group's primitives (or the scene's, group -1): its spheres and boxes, and its meshes'
-// triangles but degenerate ones, which no ray hits.
-std::vector<Geometry::Primitive> Geometry::group_prims(int group) const {
-    std::vector<Primitive> list;
-    for (int s = 0; s < int(shapes.size()); ++s) {
-        if (shapes[s].group != group) continue;
-        if (shapes[s].kind != ShapeGeometry::Kind::Mesh) {
-            list.push_back({s, 0});
-            continue;
-        }
-        const auto &m = meshes[shapes[s].index];
-        for (uint32_t i = 0; i < m.triangles.size(); ++i)
-            if (m.area(i) > 0 || !m.motion.empty()) list.push_back({s, i});
+// Shape s's primitives, appended to `list`: a sphere or box, or a mesh's triangles but
+// degenerate ones, which no ray hits (unless the mesh deforms in the shutter).
+void Geometry::append_prims(int s, std::vector<Primitive> &list) const {
+    if (shapes[size_t(s)].kind != ShapeGeometry::Kind::Mesh) {
+        list.push_back({s, 0});
+        return;
     }
-    return list;
+    const auto &m = meshes[size_t(shapes[size_t(s)].index)];
+    for (uint32_t i = 0; i < m.triangles.size(); ++i)
+        if (m.area(i) > 0 || !m.motion.empty()) list.push_back({s, i});
 }
 
 void Geometry::build() {
     // Each group's BVH first: an instance's bounds are its group's.
+    std::vector<std::vector<Primitive>> prims(size_t(group_count_) + 1);  // the scene's last
+    for (int s = 0; s < int(shapes.size()); ++s)
+        append_prims(s, prims[shapes[s].group < 0 ? size_t(group_count_) : size_t(shapes[s].group)]);
     groups_.resize(size_t(group_count_));
-    for (int g = 0; g < group_count_; ++g) groups_[size_t(g)] = build_bvh(group_prims(g));
+    for (int g = 0; g < group_count_; ++g) groups_[size_t(g)] = build_bvh(std::move(prims[size_t(g)]));
     group_bounds_.assign(size_t(group_count_), Bounds{});
-    std::vector<Primitive> scene_prims = group_prims(-1);
+    auto &scene_prims = prims.back();
     for (uint32_t k = 0; k < instances.size(); ++k) {
         if (groups_[size_t(instances[k].group)].nodes.empty()) continue;  // an empty group
         scene_prims.push_back({-1, k});
@@ -254,7 +255,10 @@ void Geometry::index_for_refit() {
 void Geometry::refit() {
     for (int g = 0; g < int(group_changed_.size()); ++g) {
         if (!group_changed_[size_t(g)]) continue;
-        groups_[size_t(g)] = build_bvh(group_prims(g));
+        std::vector<Primitive> prims;
+        for (int s = 0; s < int(shapes.size()); ++s)
+            if (shapes[size_t(s)].group == g) append_prims(s, prims);
+        groups_[size_t(g)] = build_bvh(std::move(prims));
         for (uint32_t k = 0; k < instances.size(); ++k)
             if (instances[k].group == g) moved_.push_back(k);
     }
