@@ -14,7 +14,7 @@ from collections import Counter
 
 import numpy as np
 
-from . import camera, convert, lights, materials, meshes, volumes, world
+from . import camera, convert, lights, materials, meshes, motion, volumes, world
 
 
 class ExportError(Exception):
@@ -44,8 +44,8 @@ class Exported:
     ``lamps``: the same for every point and sun emitter of a lamp that is no instance (an
     animation follows their settings frame by frame);
     ``sequences``: {key: volume object} for the VDB sequences (files change with the frame);
-    ``placed``: {key: Blender object} for the instances that objects became (not their
-    particles' or collections' instances), which motion keys move (motion.attach)."""
+    ``placed``: {key: motion.source} for the instances: what places each (an object, or a
+    particle or collection instance of its instancer), which motion keys move (motion.attach)."""
 
     def __init__(self, scene, report, suns, lamps, sequences, placed):
         self.scene, self.warnings, self.notes = scene, report.warnings, report.notes
@@ -154,17 +154,16 @@ class _Placed:
     datablock, its materials and ray visibility), or None where it cannot be instanced (it
     emits or holds a medium)."""
 
-    def __init__(self, key, parts, to_world, name, is_instance):
+    def __init__(self, key, parts, to_world, name, source):
         self.key, self.parts, self.to_world, self.name = key, parts, to_world, name
-        self.is_instance = is_instance  # of a particle system or a collection
+        self.source = source  # motion.source: what places it (the object, or its instancer)
 
 
 def _place_meshes(d, instanced):
     """The scene with each mesh object in place: meshes that several object instances share
     (linked duplicates, collection, particle and geometry-node instances), and the objects
     named in ``instanced``, as one shapegroup and an instance per object; the others as
-    world-placed shapes, one per material. Returns it and {instance key: Blender object}
-    for the instances of objects themselves."""
+    world-placed shapes, one per material. Returns it and {instance key: motion.source}."""
     counts = Counter(v.key for v in d.values() if isinstance(v, _Placed) and v.key is not None)
     out, groups, objects = {}, {}, {}
     for k, v in d.items():
@@ -177,8 +176,7 @@ def _place_meshes(d, instanced):
                 for name, shape in v.parts:  # (two slots may hold one material)
                     group[_unique(name, group)] = shape
             out[k] = {"type": "instance", "group": {"type": "ref", "id": groups[v.key]}, "to_world": v.to_world}
-            if not v.is_instance:
-                objects[k] = v.name
+            objects[k] = v.source
         else:
             for name, shape in v.parts:
                 part = k if len(v.parts) == 1 else _unique(f"{k}.{name}", d.keys() | out.keys())
@@ -269,7 +267,7 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
         shapes,
         convert.matrix(inst.matrix_world),
         obj.original.name,
-        inst.is_instance,
+        motion.source(inst),
     )
 
 

@@ -1,7 +1,8 @@
 """Motion blur as Blender's render settings ask for it (Motion Blur: Shutter and Position;
 the shutter curve aside): the camera's and moving objects' maps at KEYS evenly spaced times
-over the shutter, as the scene's ``motion`` keys, between which the core interpolates
-linearly and each camera ray draws its time; and for meshes deformed in the shutter
+over the shutter (particle and collection instances' too), as the scene's ``motion`` keys,
+between which the core interpolates linearly and each camera ray draws its time; and for
+meshes deformed in the shutter
 (modifiers, shape keys, an armature), their positions at the keys. Objects moving or
 deforming in the shutter are exported as instances of a group of their own (export_scene's
 ``instanced``): the keys move the instance, or deform the group's meshes."""
@@ -18,9 +19,18 @@ KEYS = 3
 _BLURRED = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
 
+def source(inst):
+    """What places an object instance of the depsgraph, the same at every sub-frame: the
+    object's name, or for a particle or collection instance its instancer's name and its
+    persistent id."""
+    if not inst.is_instance:
+        return inst.object.original.name
+    return inst.parent.original.name, tuple(inst.persistent_id)
+
+
 class Motion:
-    """``objects``: {Blender object: [matrix_world per key]} for the objects that move in
-    the shutter; ``camera``: the camera's scene to_world per key, or None where it holds
+    """``objects``: {source(instance): [matrix_world per key]} for the objects and
+    instances that move in the shutter; ``camera``: the camera's scene to_world per key, or None where it holds
     still; ``deformed``: {Blender object: [positions (K, n, 3) per material part, in the
     exporter's order]} for the meshes deformed in the shutter."""
 
@@ -32,7 +42,7 @@ class Motion:
 
     def instanced(self):
         """The objects to export as instances of a group of their own."""
-        return set(self.objects) | set(self.deformed)
+        return {name for name in self.objects if isinstance(name, str)} | set(self.deformed)
 
 
 def may_deform(obj):
@@ -71,6 +81,9 @@ def sample(scene, depsgraph_at, frame):
             depsgraph = depsgraph_at(whole, t - whole)
             for o in blurred:
                 maps[o.name].append(np.array(o.evaluated_get(depsgraph).matrix_world))
+            for inst in depsgraph.object_instances:
+                if inst.is_instance and inst.object.type in _BLURRED:
+                    maps.setdefault(source(inst), []).append(np.array(inst.matrix_world))
             for o in deformable:
                 parts[o.name].append(
                     [p[0] for p in meshes.triangles(o.evaluated_get(depsgraph), uv_maps[o.name]).values()]
@@ -79,7 +92,8 @@ def sample(scene, depsgraph_at, frame):
                 cams.append(camera.to_world(scene.camera.evaluated_get(depsgraph)))
     finally:
         depsgraph_at(frame, 0.0)
-    objects = {name: keys for name, keys in maps.items() if not _still(keys)}
+    # (An instance that is not there at every key, a particle born in the shutter, holds still.)
+    objects = {name: keys for name, keys in maps.items() if len(keys) == len(times) and not _still(keys)}
     deformed = {}
     for name, keys in parts.items():
         shapes = {tuple(p.shape for p in key) for key in keys}
