@@ -426,6 +426,17 @@ def keyframed(owner, attribute, first, last):
         owner.keyframe_insert(attribute, frame=frame)
 
 
+def bulging_plane(height):
+    """A plane at (0, 3, 0.5) whose shape key, keyframed from 0 at frame 1 to 1 at frame 5,
+    lifts a corner by `height`."""
+    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0.5))
+    bulge = bpy.context.object
+    bulge.shape_key_add(name="Basis")
+    key = bulge.shape_key_add(name="Bulge")
+    key.data[0].co.z = height
+    keyframed(key, "value", 0.0, 1.0)
+
+
 def pipeline_frames_as_f12(scene, anim, frames, tmp_path):
     """Asserts that each pipeline frame of the exported animation `anim` is the bits of the
     scene exported afresh at that frame (what F12 renders; with the objects the animation
@@ -471,12 +482,7 @@ def test_every_animation_reaches_the_video_as_f12_renders_it(blank, tmp_path):
     keyframed(colour, "default_value", (0.8, 0.1, 0.1, 1), (0.1, 0.8, 0.1, 1))
     bpy.ops.object.light_add(type="POINT", location=(0, 0, 4))
     keyframed(bpy.context.object.data, "energy", 300, 1500)
-    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0.5))
-    bulge = bpy.context.object
-    bulge.shape_key_add(name="Basis")
-    key = bulge.shape_key_add(name="Bulge")
-    key.data[0].co.z = 1.0
-    keyframed(key, "value", 0.0, 1.0)
+    bulging_plane(1.0)
     keyframed(blank.camera.data, "lens", 50, 40)
     strength = set_background(blank, (0.1, 0.2, 0.4)).node_tree.nodes["Background"].inputs["Strength"]
     keyframed(strength, "default_value", 1.0, 3.0)
@@ -629,12 +635,7 @@ def test_motion_blur_reaches_f12_and_the_pipeline_alike(blank, tmp_path):
     cube = bpy.context.object
     keyframed(cube, "location", (-3, 0, 1), (3, 0, 1))
     keyframed(cam, "location", (0, -8, 3), (1, -8, 3))
-    bpy.ops.mesh.primitive_plane_add(location=(0, 3, 0.5))
-    bulge = bpy.context.object
-    bulge.shape_key_add(name="Basis")
-    key = bulge.shape_key_add(name="Bulge")
-    key.data[0].co.z = 2.0
-    keyframed(key, "value", 0.0, 1.0)
+    bulging_plane(2.0)
     blank.render.use_motion_blur, blank.render.motion_blur_shutter = True, 1.0
     blank.volpath.seed = 5
     blank.frame_set(3)
