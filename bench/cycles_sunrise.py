@@ -77,13 +77,19 @@ def render_cycles(bpy, volpath, scene, frame, tmp, spp, seed, denoise=False):
     c.volume_bounces = 16  # Volpath's paths are unlimited; Cycles' default is single scattering
     scene.render.threads_mode, scene.render.threads = "FIXED", THREADS
     scene.frame_set(frame)
+    return f12(bpy, volpath, scene, os.path.join(tmp, "cycles.exr"))
+
+
+def f12(bpy, volpath, scene, path):
+    """F12 with the scene's engine, saved as a 32-bit EXR at `path`: (image, seconds of the
+    render call)."""
     scene.render.image_settings.file_format = "OPEN_EXR"
     scene.render.image_settings.color_depth = "32"
-    scene.render.filepath = os.path.join(tmp, "cycles.exr")
+    scene.render.filepath = path
     start = time.perf_counter()
     bpy.ops.render.render(write_still=True)
     seconds = time.perf_counter() - start
-    return volpath.read_exr(scene.render.filepath)[..., :3], seconds
+    return volpath.read_exr(path)[..., :3], seconds
 
 
 def sky_scene():

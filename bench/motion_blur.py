@@ -13,7 +13,6 @@ import argparse
 import os
 import sys
 import tempfile
-import time
 
 import numpy as np
 
@@ -59,12 +58,7 @@ def render(bpy, volpath, scene, engine, spp, seed, tmp):
         return cycles_sunrise.render_cycles(bpy, volpath, scene, FRAME, tmp, spp, seed)
     scene.render.engine = "VOLPATH"
     scene.volpath.spp, scene.volpath.seed, scene.volpath.threads = spp, seed, THREADS
-    scene.render.image_settings.file_format, scene.render.image_settings.color_depth = "OPEN_EXR", "32"
-    scene.render.filepath = os.path.join(tmp, "volpath.exr")
-    start = time.perf_counter()
-    bpy.ops.render.render(write_still=True)
-    seconds = time.perf_counter() - start
-    return volpath.read_exr(scene.render.filepath)[..., :3], seconds
+    return cycles_sunrise.f12(bpy, volpath, scene, os.path.join(tmp, "volpath.exr"))
 
 
 def main():

@@ -109,10 +109,7 @@ def _scan(scene, frames):
 
     from . import Report
 
-    def depsgraph_at(frame, subframe):
-        scene.frame_set(frame, subframe=subframe)
-        return bpy.context.evaluated_depsgraph_get()
-
+    depsgraph_at = motion.scene_depsgraph(scene)
     followed, scan, first = _followed(scene), _Scan(), None
     current = scene.frame_current
     try:

@@ -64,6 +64,17 @@ def shutter_times(render, frame):
     return [opening + s * k / (KEYS - 1) for k in range(KEYS)]
 
 
+def scene_depsgraph(scene):
+    """depsgraph_at for `sample` outside a render engine: the scene's own frame_set."""
+    import bpy
+
+    def depsgraph_at(frame, subframe):
+        scene.frame_set(frame, subframe=subframe)
+        return bpy.context.evaluated_depsgraph_get()
+
+    return depsgraph_at
+
+
 def sample(scene, depsgraph_at, frame):
     """The Motion over the shutter of `frame`, or None where motion blur is off.
     ``depsgraph_at(frame, subframe)`` evaluates the scene there and returns the depsgraph (a

@@ -611,11 +611,7 @@ def blurred_export(scene, frame, instanced=None):
     frame_set standing in for the engine's); `instanced`: as an animation instanced them."""
     from addon.export import motion
 
-    def depsgraph_at(f, subframe):
-        scene.frame_set(f, subframe=subframe)
-        return depsgraph()
-
-    blur = motion.sample(scene, depsgraph_at, frame)
+    blur = motion.sample(scene, motion.scene_depsgraph(scene), frame)
     exported = export_scene(depsgraph(), instanced=blur.instanced() if instanced is None else instanced)
     motion.attach(exported, blur)
     return exported

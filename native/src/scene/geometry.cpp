@@ -832,9 +832,11 @@ bool Geometry::traverse(const Ray &ray, Hit &closest, bool any, Accept &&accept)
         // The ray in the group's space: the same t, up to a direction no longer unit.
         const Instance &inst = instances[prim.index];
         const Bvh &group = groups_[size_t(inst.group)];
-        Transform moved;
-        const Transform &to_local = inst.motion.moves() ? (moved = inst.motion.at(ray.time).inverse()) : inst.to_local;
-        const Ray local{to_local.point(ray.o), to_local.vector(ray.d), ray.t_min, closest.t, ray.time};
+        auto into = [&](const Transform &to_local) {
+            return Ray{to_local.point(ray.o), to_local.vector(ray.d), ray.t_min, closest.t, ray.time};
+        };
+        // (A still instance's ray costs no map built for it.)
+        const Ray local = inst.motion.moves() ? into(inst.motion.at(ray.time).inverse()) : into(inst.to_local);
         const PreparedRay local_prepared(local.d);
         walk(group, local, local_prepared.inv_d, closest.t, [&](uint32_t j) {
             if (accept(group.prims[j].shape) &&
