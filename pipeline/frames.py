@@ -15,7 +15,7 @@ An animation directory holds ``scene.xml`` (with its meshes/ and volumes/) and
 
 ``suns``: the scene's sun emitters and the Sun lamps they came from; per frame, each lamp's
 direction (where its light travels, in scene coordinates) and the camera's ``to_world``
-(null without a camera). ``lamps``: the point and sun emitters followed frame by frame, each
+(null without a camera). ``lamps``: the point, spot and sun emitters followed frame by frame, each
 frame holding the emitter as Blender evaluates the lamp there (power, colour, position,
 direction). ``volumes`` only for VDB sequences: their grids at that frame, as scene-language
 volumes (a ``vdbvolume``: a copy of the frame's .vdb, or an emitting volume's radiance

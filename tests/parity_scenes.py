@@ -60,6 +60,45 @@ def area_light_spread(scene):
     _light("AREA", 150, location=(1.5, 0, 2), rotation=(0.4, 0, 0), shape="DISK", size=0.8, spread=math.radians(100))
 
 
+def spot_lights(scene):
+    """A spot with a hard edge and one with a soft one (Blend), tilted, beside a cube."""
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0.5, 0.5))
+    _light("SPOT", 400, location=(-1.5, 0, 3), rotation=(0.3, 0, 0), spot_size=math.radians(50), spot_blend=0)
+    _light("SPOT", 600, location=(1.5, -1, 3), rotation=(-0.2, 0.3, 0), spot_size=math.radians(70), spot_blend=0.6)
+    set_background(scene, (0.03, 0.03, 0.03))
+
+
+def sphere_lights(scene):
+    """A point lamp and a spot with a Radius: soft shadows, the lamps seen as discs; one
+    with Soft Falloff, one without."""
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(-0.5, 0, 0.5))
+    _light("POINT", 300, location=(0.8, -0.5, 1.8), shadow_soft_size=0.35)
+    spot = _light("SPOT", 500, location=(-1.8, -1, 2.2), rotation=(0.5, -0.4, 0), spot_size=math.radians(80))
+    spot.data.shadow_soft_size, spot.data.use_soft_falloff = 0.25, False
+    set_background(scene, (0.03, 0.03, 0.03))
+
+
+def light_colour(scene):
+    """A point lamp coloured by its Temperature, with an Exposure; an area lamp whose power
+    is not normalized by its size; a spot whose node tree's Emission takes its colour from a
+    Blackbody node and doubles its strength."""
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(0, 0, 0.5))
+    warm = _light("POINT", 100, location=(-1, -1, 2.5), shadow_soft_size=0, exposure=1.5)
+    warm.data.use_temperature, warm.data.temperature = True, 2700
+    _light("AREA", 40, location=(1.5, 0, 2), size=1.5, normalize=False)
+    spot = _light("SPOT", 300, location=(0, 1.5, 3), rotation=(-0.4, 0, 0), shadow_soft_size=0)
+    spot.data.use_nodes = True
+    tree = spot.data.node_tree
+    emission = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 2.0
+    blackbody = tree.nodes.new("ShaderNodeBlackbody")
+    blackbody.inputs["Temperature"].default_value = 9000
+    tree.links.new(blackbody.outputs[0], emission.inputs["Color"])
+
+
 def light_visibility(scene):
     """A point light that casts no shadow (Cast Shadow off) beside a cube and a box of smoke,
     and an area light that lights no medium (Volume Scatter off) above the smoke."""
@@ -207,6 +246,9 @@ SCENES = {
     "sun with an angle": sun_with_angle,
     "area lights": area_lights,
     "area light spread": area_light_spread,
+    "spot lights": spot_lights,
+    "sphere lights": sphere_lights,
+    "light colour": light_colour,
     "light visibility": light_visibility,
     "light lobes": light_lobes,
     "emission shader": emission_shader,

@@ -41,7 +41,7 @@ class Report:
 class Exported:
     """``scene``: the dictionary; ``warnings``/``notes``: what the report shows;
     ``suns``: keys of the sun emitters, with the Blender objects they came from;
-    ``lamps``: the same for every point and sun emitter of a lamp that is no instance (an
+    ``lamps``: the same for every point, spot and sun emitter of a lamp that is no instance (an
     animation follows their settings frame by frame);
     ``sequences``: {key: volume object} for the VDB sequences (files change with the frame);
     ``placed``: {key: motion.source} for the instances: what places each (an object, or a
@@ -115,7 +115,7 @@ def export_scene(depsgraph, mesh_cache=None, instanced=(), final=False):
                 k = add(obj.name, entry)
                 if entry["type"] == "sun":
                     suns[k] = obj.original.name
-                if entry["type"] in lights.FOLLOWED and not inst.is_instance:
+                if lights.followed(obj.data) and not inst.is_instance:
                     lamps[k] = obj.original.name
         elif obj.type in _CONVERTIBLE:
             placed = _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report)

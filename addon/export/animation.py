@@ -1,6 +1,6 @@
 """A Blender animation as an animation directory: the scene once, and per frame what
 changes, evaluated by Blender itself (``frame_set``), so that fcurves, drivers and
-constraints count. The camera, the point and sun lamps and VDB sequences are updated from
+constraints count. The camera, the point, spot and sun lamps and VDB sequences are updated from
 animation.json; anything else animated (objects moving or deforming, materials, the world,
 lamp and camera settings, instances) is found by comparing each frame with the first, and
 the scene entries it changes are written per frame (updates_NNNN.xml), which a worker
@@ -56,7 +56,7 @@ def export_animation(scene, frames, directory):
     }
     if scan.changed:
         warnings.append(
-            "animated besides the camera, point and sun lamps and VDB sequences: "
+            "animated besides the camera, point, spot and sun lamps and VDB sequences: "
             + "; ".join(f"{a['what']} ({a['changes']}, from frame {a['from_frame']})" for a in scan.animated)
             + f"; {len(scan.changed_frames) - len(whole)} frames are updates of the first"
             + (f", {len(whole)} exported whole (objects appear or vanish)" if whole else "")
@@ -92,16 +92,17 @@ class _Scan:
 
 
 def _followed(scene):
-    """The objects animation.json follows frame by frame: point and sun lamps, VDB sequences."""
+    """The objects animation.json follows frame by frame: sun, point and spot lamps without a
+    radius, VDB sequences."""
     return {
         o.name
         for o in scene.objects
-        if (o.type == "LIGHT" and o.data.type.lower() in lights.FOLLOWED) or (o.type == "VOLUME" and o.data.is_sequence)
+        if (o.type == "LIGHT" and lights.followed(o.data)) or (o.type == "VOLUME" and o.data.is_sequence)
     }
 
 
 def _scan(scene, frames):
-    """Per frame, the direction of every Sun lamp, the point and sun lamps' emitters and the
+    """Per frame, the direction of every Sun lamp, the point, spot and sun lamps' emitters and the
     camera's to_world; what else changes over `frames`, found by comparing what Blender
     evaluates at each frame with the first (_unfollowed_state); and with Motion Blur on,
     what moves in each frame's shutter (motion.sample)."""
@@ -214,7 +215,22 @@ def _node_values(tree):
     return values
 
 
-LIGHT_SETTINGS = ("energy", "color", "shadow_soft_size", "spot_size", "spot_blend", "angle", "size", "size_y", "spread")
+LIGHT_SETTINGS = (
+    "energy",
+    "color",
+    "exposure",
+    "use_temperature",
+    "temperature",
+    "normalize",
+    "shadow_soft_size",
+    "use_soft_falloff",
+    "spot_size",
+    "spot_blend",
+    "angle",
+    "size",
+    "size_y",
+    "spread",
+)
 CAMERA_SETTINGS = ("lens", "sensor_width", "sensor_height", "shift_x", "shift_y", "clip_start", "clip_end")
 
 

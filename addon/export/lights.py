@@ -1,6 +1,7 @@
-"""Blender lights to emitters, in Blender's radiometry (as Cycles renders it): a point light
-of power P has intensity P/(4 pi) W/sr, a sun's strength is its irradiance in W/m², an
-area light of power P and area A has radiance P/(pi A)."""
+"""Blender lights to emitters, in Blender's radiometry (as Cycles renders it): a point or
+spot light of power P has intensity P/(4 pi) W/sr (with a Radius r, a sphere of radiance
+P/(4 pi^2 r^2)), a sun's strength is its irradiance in W/m², an area light of power P and
+area A has radiance P/(pi A)."""
 
 import math
 
@@ -37,17 +38,56 @@ def hidden_from(obj):
     return ", ".join(hidden_kinds(obj))
 
 
-# The emitters an animation follows frame by frame: a loaded scene replaces them cheaply
-# (volpath's Scene.update), so every frame has the lamp as Blender evaluates it there.
-FOLLOWED = ("point", "sun")
+def followed(light):
+    """Whether a lamp is one an animation follows frame by frame: one exported as an emitter
+    (a sun, a point or spot lamp without a radius), which a loaded scene replaces cheaply
+    (volpath's Scene.update), so that every frame has the lamp as Blender evaluates it."""
+    return light.type == "SUN" or (light.type in ("POINT", "SPOT") and light.shadow_soft_size == 0)
+
+
+def power(light, report, name):
+    """The lamp's colour times its power, as Cycles reads them: Color, times the colour of
+    its Temperature where that is on, times Power (W; the sun's Strength in W/m²) times 2 to
+    the Exposure, times what its node tree's Emission gives (colour x strength)."""
+    color = np.array(light.color, dtype=np.float64)
+    if getattr(light, "use_temperature", False):
+        color = color * np.array(light.temperature_color, dtype=np.float64)
+    return color * light.energy * 2.0 ** getattr(light, "exposure", 0.0) * _emission(light, report, name)
+
+
+def _emission(light, report, name):
+    """The colour x strength of the Emission node on a lamp's Light Output (1 without one).
+    Its Color may come from a Blackbody node; other nodes driving it are reported and their
+    socket's value used."""
+    tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputLight"] if tree else []
+    active = [n for n in outputs if n.is_active_output] or outputs
+    if not active or not active[0].inputs["Surface"].is_linked:
+        return np.ones(3)
+    node = active[0].inputs["Surface"].links[0].from_node
+    if node.bl_idname != "ShaderNodeEmission":
+        report.warn(f"light '{name}': '{node.name}' on its Light Output is not supported (expected Emission)")
+        return np.ones(3)
+    from volpath.blackbody import blackbody_colour
+
+    def value(socket):
+        if not socket.is_linked:
+            return np.array(socket.default_value, dtype=np.float64).ravel()[:3]
+        source = socket.links[0].from_node
+        if source.bl_idname == "ShaderNodeBlackbody" and not source.inputs["Temperature"].is_linked:
+            return blackbody_colour(source.inputs["Temperature"].default_value)
+        report.warn(f"light '{name}': '{source.name}' drives {socket.name}; using the socket's value")
+        return np.array(socket.default_value, dtype=np.float64).ravel()[:3]
+
+    return value(node.inputs["Color"]) * value(node.inputs["Strength"])[0]
 
 
 def export(obj, matrix_world, report):
     """The emitter (or emitting shape) of one light instance, or None; unsupported lights
     are reported, never dropped silently."""
     light = obj.data
-    color = np.array(light.color, dtype=np.float64) * light.energy
     name = obj.name
+    color = power(light, report, name)
     off = hidden_kinds(obj)
     # Diffuse, Glossy, Transmission off: it lights surfaces through their other lobes only.
     # Volume Scatter off: it lights no medium. Cast Shadow off: it casts none (Cycles reads
@@ -55,15 +95,8 @@ def export(obj, matrix_world, report):
     kinds = [k for k in off if k in ("diffuse", "glossy", "transmission", "scatter")]
     kinds += [] if light.use_shadow else ["shadow"]
     hidden = {"hidden_from": ", ".join(kinds)} if kinds else {}
-    if light.type == "POINT":
-        if light.shadow_soft_size > 0:
-            report.note(f"light '{name}': soft radius {light.shadow_soft_size:g} is rendered as a point light")
-        return {
-            "type": "point",
-            "position": convert.matrix(matrix_world)[:3, 3],
-            "intensity": convert.rgb(color / (4 * math.pi)),
-            **hidden,
-        }
+    if light.type in ("POINT", "SPOT"):
+        return _point(light, obj, matrix_world, color, report, hidden)
     if light.type == "SUN":
         return {
             "type": "sun",
@@ -76,6 +109,48 @@ def export(obj, matrix_world, report):
         return _area(light, matrix_world, color, report, name, obj.visible_camera, hidden)
     report.warn(f"light '{name}': {light.type.lower()} lights are not supported (skipped)")
     return None
+
+
+def _point(light, obj, matrix_world, power, report, hidden):
+    """A point or spot lamp: of intensity power / (4 pi) W/sr (a spot's cone cuts it, it
+    does not concentrate it, as in Cycles); with a Radius, a sphere of that radius whose
+    radiance gives the same power, seen by the camera where its visibility says so."""
+    m = convert.matrix(matrix_world)
+    position = m[:3, 3]
+    intensity = power / (4 * math.pi)
+    spot = {}
+    if light.type == "SPOT":
+        scales = np.linalg.norm(np.array(matrix_world)[:3, :3], axis=0)
+        if not np.allclose(scales, scales[0], rtol=1e-4):
+            report.note(f"light '{obj.name}': a spot's non-uniform scale is ignored (its cone stays round)")
+        spot = {
+            "direction": -m[:3, 2] / np.linalg.norm(m[:3, 2]),  # the lamp shines along its -Z
+            "cutoff_angle": min(math.degrees(light.spot_size) / 2, 90.0),
+            "blend": float(light.spot_blend),
+        }
+    radius = light.shadow_soft_size
+    if radius <= 0:
+        return {
+            "type": light.type.lower(),
+            "position": position,
+            "intensity": convert.rgb(intensity),
+            **spot,
+            **hidden,
+        }
+    return {
+        "type": "sphere",
+        "center": position,
+        "radius": float(radius),
+        "bsdf": {"type": "null"},
+        "emitter": {
+            "type": "area",
+            "radiance": convert.rgb(intensity / (math.pi * radius**2)),
+            "soft_falloff": bool(getattr(light, "use_soft_falloff", True)),
+            **spot,
+            **hidden,
+        },
+        **({} if obj.visible_camera else {"hidden_from": "camera"}),
+    }
 
 
 def _area(light, matrix_world, power, report, name, camera_visible, hidden):
@@ -112,7 +187,8 @@ def _area(light, matrix_world, power, report, name, camera_visible, hidden):
         "bsdf": {"type": "null"},
         "emitter": {
             "type": "area",
-            "radiance": convert.rgb(power / (math.pi * area)),
+            # Normalize off: Power is per square metre, the light grows with its size.
+            "radiance": convert.rgb(power / (math.pi * (area if getattr(light, "normalize", True) else 1.0))),
             **_spread(light, report, name),
             **hidden,
         },

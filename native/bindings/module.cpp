@@ -566,9 +566,12 @@ PYBIND11_MODULE(_core, m) {
             "add_sphere",
             [](Scene &s, Array3 center, double radius, bool flip, int bsdf, int interior, int exterior,
                bool medium_interface, std::optional<Array3> radiance, int hidden_from, bool emitter_twosided,
-               double emitter_spread, int emitter_hidden_from) {
-                const AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
-                                            uint8_t(emitter_hidden_from)};
+               double emitter_spread, int emitter_hidden_from, std::optional<std::tuple<Array3, double, double>> spot,
+               bool soft_falloff) {
+                AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
+                                      uint8_t(emitter_hidden_from)};
+                if (spot) emission.spot = spot_cone(vec(std::get<0>(*spot)), std::get<1>(*spot), std::get<2>(*spot));
+                emission.soft_falloff = soft_falloff;
                 return s.add_shape_sphere(Sphere{vec(center), radius, flip},
                                           shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
                                           radiance ? &emission : nullptr);
@@ -576,7 +579,8 @@ PYBIND11_MODULE(_core, m) {
             py::arg("center"), py::arg("radius"), py::arg("flip_normals"), py::arg("bsdf"), py::arg("interior") = -1,
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
             py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false, py::arg("emitter_spread") = kPi,
-            py::arg("emitter_hidden_from") = 0)
+            py::arg("emitter_hidden_from") = 0, py::arg("emitter_spot") = py::none(),
+            py::arg("emitter_soft_falloff") = false)
         .def(
             "add_box",
             [](Scene &s, const DoubleArray &to_world, const DoubleArray &to_local, bool flip, int bsdf, int interior,
@@ -635,6 +639,17 @@ PYBIND11_MODULE(_core, m) {
                 return add_or_replace(s, PointLight{vec(p), vec(intensity)}, replace, hidden_from);
             },
             py::arg("position"), py::arg("intensity"), py::arg("replace") = -1, py::arg("hidden_from") = 0)
+        .def(
+            "add_spot_light",
+            [](Scene &s, Array3 p, Array3 direction, double half_angle, double blend, Array3 intensity, int replace,
+               int hidden_from) {
+                const PointLight light{vec(p), vec(intensity), spot_cone(vec(direction), half_angle, blend)};
+                return add_or_replace(s, light, replace, hidden_from);
+            },
+            "A point light whose light leaves within a cone (half_angle in radians), its outer `blend` share "
+            "fading by a smoothstep (Blender's spot lamp).",
+            py::arg("position"), py::arg("direction"), py::arg("half_angle"), py::arg("blend"), py::arg("intensity"),
+            py::arg("replace") = -1, py::arg("hidden_from") = 0)
         .def(
             "add_directional_light",
             [](Scene &s, Array3 d, Array3 irradiance, int replace, int hidden_from) {

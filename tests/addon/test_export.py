@@ -231,12 +231,16 @@ def test_unsupported_features_warn_in_the_render_report(blank, tmp_path, capfd):
     noise = m.node_tree.nodes.new("ShaderNodeTexNoise")
     m.node_tree.links.new(noise.outputs["Color"], m.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
     bpy.ops.object.light_add(type="SPOT", location=(0, 0, 3))
+    spot = bpy.context.object.data
+    spot.use_nodes = True
+    emission = next(n for n in spot.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+    spot.node_tree.links.new(spot.node_tree.nodes.new("ShaderNodeTexNoise").outputs["Color"], emission.inputs["Color"])
     warnings = export_scene(depsgraph()).warnings
-    assert any("spot lights are not supported" in w for w in warnings)
+    assert any("'Noise Texture' drives Color; using the socket's value" in w for w in warnings)
     assert any("'Base Color'" in w and "driven by nodes" in w for w in warnings)
     render_f12(blank, tmp_path / "f12.exr")
     out = capfd.readouterr()
-    assert "Warning: Volpath: light 'Spot': spot lights are not supported" in out.out + out.err
+    assert "Warning: Volpath: light 'Spot': 'Noise Texture' drives Color" in out.out + out.err
 
 
 def test_no_camera_is_an_error_in_the_report(blank, capfd):

@@ -1,5 +1,5 @@
-"""Emitter plugins: point, directional, sun, constant and envmap (area emitters belong to
-their shapes)."""
+"""Emitter plugins: point, spot, directional, sun, constant and envmap (area emitters belong
+to their shapes)."""
 
 import math
 
@@ -25,6 +25,15 @@ def build(b, d, key=None):
         intensity = p.rgb("intensity", 1.0, emitted=True)
         index = n.add_point_light(tuple(pos), tuple(intensity), replace, light_hidden_from(p))
         info.update(position=pos.tolist(), intensity=intensity.tolist())
+    elif p.type == "spot":
+        to_world = p.transform()
+        pos = p.vec3("position") if p.has("position") else to_world[:3, 3]
+        direction, half_angle, blend = spot_cone(p, to_world[:3, :3] @ np.array([0.0, 0.0, 1.0]))
+        intensity = p.rgb("intensity", 1.0, emitted=True)
+        index = n.add_spot_light(
+            tuple(pos), tuple(direction), half_angle, blend, tuple(intensity), replace, light_hidden_from(p)
+        )
+        info.update(position=pos.tolist(), direction=direction.tolist(), intensity=intensity.tolist())
     elif p.type == "directional":
         if p.has("direction"):
             direction = p.vec3("direction")
@@ -79,9 +88,21 @@ def build(b, d, key=None):
     elif p.type == "area":
         raise p.error("an area emitter must be nested inside a shape")
     else:
-        raise p.error("unknown emitter (expected one of: point, directional, sun, constant, envmap, area)")
+        raise p.error("unknown emitter (expected one of: point, spot, directional, sun, constant, envmap, area)")
     p.raw("sampling_weight")
     p.check()
     b.summary["emitters"][position : position + 1] = [info]
     if key is not None and index is not None:
         b.lights[key] = (index, position)
+
+
+def spot_cone(p, axis):
+    """(direction, half-angle in radians, blend) of a spot: Mitsuba's `cutoff_angle` (the
+    half-angle in degrees, default 20) about `direction` (else `axis`, if given), and
+    Volpath's `blend`, Blender's Spot Blend (the cone's outer share that fades, default 0)."""
+    direction = p.vec3("direction", axis)
+    if np.linalg.norm(direction) == 0:
+        raise p.error("'direction' must not be zero")
+    cutoff = p.float("cutoff_angle", 20.0, positive=True, maximum=90.0)
+    blend = p.float("blend", 0.0, minimum=0.0, maximum=1.0)
+    return direction / np.linalg.norm(direction), math.radians(cutoff), blend

@@ -20,6 +20,7 @@ def build(b, d, group=-1):
     to_world = p.transform()
     bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
     emitter_twosided, emitter_spread, emitter_hidden_from = False, math.pi, 0
+    sphere_emission = {}
     for key, v in d.items():
         if not isinstance(v, dict) or key == "to_world":
             continue
@@ -42,6 +43,11 @@ def build(b, d, group=-1):
                 raise ep.error(f"'spread' must be in (0, 180] degrees, got {spread:g}")
             emitter_spread = math.radians(spread)
             emitter_hidden_from = light_hidden_from(ep)
+            if p.type == "sphere":  # Blender's lamps with a radius: a spot cone, Soft Falloff
+                from .emitters import spot_cone
+
+                spot = spot_cone(ep, None) if ep.has("cutoff_angle") else None
+                sphere_emission = dict(emitter_spot=spot, emitter_soft_falloff=ep.bool("soft_falloff", False))
             ep.check()
         elif kind == "medium":
             if key not in ("interior", "exterior"):
@@ -82,7 +88,7 @@ def build(b, d, group=-1):
         ):
             raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
         radius *= scales[0]
-        index = b.native.add_sphere(tuple(center), radius, flip, **common)
+        index = b.native.add_sphere(tuple(center), radius, flip, **common, **sphere_emission)
         bounds = np.array([center - radius, center + radius])
         b.summary["shapes"].append(
             {

@@ -12,9 +12,29 @@
 
 namespace volpath {
 
+// A spot lamp's cone (Blender's Spot Size and Blend, as Cycles renders them): full
+// strength inside, falling by a smoothstep in the cosine over the cone's outer `blend`
+// share to nothing at its edge, acos(cos_half) from the axis. No cosine falloff inside.
+struct SpotCone {
+    Vec3 axis{0, 0, 1};           // unit, where the lamp points
+    Real cos_half = -1;           // -1: no cone, light in every direction
+    Real inv_smooth = kInfinity;  // 1 / ((1 - cos_half) blend); infinity: a hard edge
+};
+// The spot's factor on light leaving along the unit direction w.
+inline Real spot_falloff(const SpotCone &spot, const Vec3 &w) {
+    if (spot.cos_half <= -1) return 1;
+    const Real t = (dot(spot.axis, w) - spot.cos_half) * spot.inv_smooth;
+    if (!(t > 0)) return 0;
+    return t >= 1 ? 1 : t * t * (3 - 2 * t);
+}
+// The cone of half-angle `half_angle` (radians, in (0, pi/2]) whose outer `blend` share
+// (in [0, 1]) fades.
+SpotCone spot_cone(const Vec3 &axis, Real half_angle, Real blend);
+
 struct PointLight {
     Vec3 position;
     Spectrum intensity;  // W / sr
+    SpotCone spot;
 };
 
 struct DirectionalLight {
@@ -34,14 +54,24 @@ struct AreaLight {
     // Blender's Spread: the light leaves within spread / 2 of the normal (spread_falloff);
     // kPi: in every direction alike. prepare_light derives the other two.
     Real spread = kPi, tan_half_spread = kInfinity, spread_normalization = 1;
+    // A Blender lamp with a radius (a sphere): its spot cone, on the direction light
+    // leaves in, and Soft Falloff, which dims it toward receivers near it as Cycles does,
+    // by D^2 / (D^2 + r^2) at distance D from its centre: the irradiance of a disc of
+    // radius r that faces the receiver instead of the sphere's (set for spheres:
+    // soft_radius = r).
+    SpotCone spot;
+    Real soft_radius = 0;
 };
 
-// What a shape emits: an area light's radiance, its faces, its spread and its visibility.
+// What a shape emits: an area light's radiance, its faces, its spread, spot cone, soft
+// falloff (spheres) and visibility.
 struct AreaEmission {
     Spectrum radiance;
     bool twosided = false;
     Real spread = kPi;
     uint8_t hidden_from = 0;  // Scene::light_hidden_from
+    SpotCone spot;
+    bool soft_falloff = false;
 };
 
 // The cosine at which light from an area light's point with normal n leaves toward a
@@ -60,6 +90,20 @@ inline Real spread_falloff(const AreaLight &l, Real cos_theta) {
     if (l.spread >= kPi) return 1;
     const Real tan_theta = safe_sqrt(1 - cos_theta * cos_theta) / cos_theta;
     return std::max(l.tan_half_spread - tan_theta, Real(0)) * l.spread_normalization;
+}
+
+// The radiance that a receiver at `ref` sees along the unit direction d from an area
+// light's point with normal n: 0 from a one-sided light's back; the spread, spot and soft
+// falloff applied. Every strategy that finds the light asks this.
+inline Spectrum area_radiance(const AreaLight &l, const Vec3 &n, const Vec3 &d, const Vec3 &ref) {
+    const Real cos_l = emitting_cos(l, n, d);
+    if (cos_l <= 0) return Spectrum(0.0);
+    Real f = spread_falloff(l, cos_l) * spot_falloff(l.spot, -d);
+    if (l.soft_radius > 0) {
+        const Real D2 = length_squared(ref - l.center);
+        f *= D2 / (D2 + l.soft_radius * l.soft_radius);
+    }
+    return l.radiance * f;
 }
 
 // Radiance arriving from infinity: a constant, or a latitude-longitude map (Mitsuba's

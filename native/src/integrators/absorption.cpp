@@ -57,6 +57,7 @@ Spectrum absorption_radiance(const Scene &scene, Ray ray, int medium, Sampler &s
     const auto add = [&](const Spectrum &Le) {
         if (!is_black(Le)) L += beta * Le / average(r_u);
     };
+    const Vec3 camera = ray.o;  // where the lights' falloffs are seen from
     for (int crossings = 0; crossings <= kMaxNullCrossings; ++crossings) {
         Intersection its;
         const bool hit = scene.intersect(ray, its, medium);
@@ -69,9 +70,7 @@ Spectrum absorption_radiance(const Scene &scene, Ray ray, int medium, Sampler &s
         const ShapeInfo &shape = scene.shapes[its.shape];
         if (!shape.hides_from(RayKind::Camera)) {
             if (shape.light >= 0) {
-                const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-                if (const Real cos_l = emitting_cos(area, its.n, ray.d); cos_l > 0)
-                    add(area.radiance * spread_falloff(area, cos_l));
+                add(area_radiance(std::get<AreaLight>(scene.lights[shape.light]), its.n, ray.d, camera));
             }
             // The surface stops the ray unless it is a boundary or lets it through (a mask).
             const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];

@@ -463,9 +463,8 @@ Step Path::at_surface(const Intersection &its) {
     if (shape.hides_from(ray_kind)) return pass_through();
     if (shape.light >= 0) {
         const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-        if (const Real cos_l = emitting_cos(area, its.n, ray.d); cos_l > 0)
-            add_emission(area.radiance * spread_falloff(area, cos_l), shape.light,
-                         light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
+        if (const Spectrum Le = area_radiance(area, its.n, ray.d, prev_p); !is_black(Le))
+            add_emission(Le, shape.light, light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
     const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];
     if (is_null(given)) return pass_through();

@@ -51,7 +51,7 @@ struct Sample {
         if (d2 <= 0) return false;
         out.dist = std::sqrt(d2);
         out.d = to / out.dist;
-        out.L = l.intensity / d2;
+        out.L = l.intensity * (spot_falloff(l.spot, -out.d) / d2);
         out.pdf = 1;
         out.delta = true;
         return true;
@@ -116,8 +116,7 @@ struct Sample {
                 out.d = d;
                 out.dist = t0;
                 out.pdf = uniform_cone_pdf(cos_max);
-                const Real cos_l = emitting_cos(l, n, d);
-                out.L = cos_l > 0 ? l.radiance * spread_falloff(l, cos_l) : Spectrum(0.0);
+                out.L = area_radiance(l, n, d, ref);
                 return out.pdf > 0 && std::isfinite(out.pdf);
             }
             n = sample_uniform_sphere(u);
@@ -143,7 +142,7 @@ struct Sample {
         const Real cos_l = emitting_cos(l, n, out.d);
         if (cos_l <= 0) return false;  // the back of a one-sided emitter is dark
         out.pdf = pdf_area * d2 / cos_l;
-        out.L = l.radiance * spread_falloff(l, cos_l);
+        out.L = area_radiance(l, n, out.d, ref);
         return true;
     }
 };
@@ -176,6 +175,16 @@ struct Pdf {
 
 }  // namespace
 
+SpotCone spot_cone(const Vec3 &axis, Real half_angle, Real blend) {
+    if (!(half_angle > 0 && half_angle <= kPi / 2))
+        throw std::invalid_argument("a spot's half-angle must be in (0, pi/2]");
+    if (!(blend >= 0 && blend <= 1)) throw std::invalid_argument("a spot's blend must be in [0, 1]");
+    if (!(length_squared(axis) > 0)) throw std::invalid_argument("a spot's direction must not be zero");
+    SpotCone spot{normalize(axis), std::cos(half_angle)};
+    if (blend > 0) spot.inv_smooth = 1 / ((1 - spot.cos_half) * blend);
+    return spot;
+}
+
 void prepare_light(Light &light, const Geometry &geometry) {
     if (auto *area = std::get_if<AreaLight>(&light)) {
         if (const Real h = area->spread / 2; h < kPi / 2) {
@@ -188,6 +197,7 @@ void prepare_light(Light &light, const Geometry &geometry) {
             const Sphere &s = geometry.spheres[sg.index];
             area->area = 4.0 * kPi * s.radius * s.radius;
             area->center = s.center;
+            if (area->soft_radius > 0) area->soft_radius = s.radius;
         } else {
             const TriangleMesh &m = geometry.meshes[sg.index];
             std::vector<Real> areas(m.triangles.size());

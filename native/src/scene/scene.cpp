@@ -106,6 +106,8 @@ AreaLight area_light(int shape, const AreaEmission &e) {
     if (!(e.spread > 0 && e.spread <= kPi)) throw std::invalid_argument("an area light's spread must be in (0, pi]");
     AreaLight light{shape, e.radiance};
     light.twosided = e.twosided, light.spread = e.spread;
+    light.spot = e.spot;
+    light.soft_radius = e.soft_falloff ? 1 : 0;  // prepare_light sets the sphere's radius
     return light;
 }
 }  // namespace
