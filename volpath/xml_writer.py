@@ -196,7 +196,7 @@ class _Writer:
                     keys.append(self.asset("meshes", f"{key}_key", "ply", (positions, arrays[1])))
                     self.write(keys[-1], lambda path, p=positions: write_ply(path, p, arrays[1]))
                 d["motion"] = ", ".join(keys)
-        elif d["type"] == "bitmap" and "data" in d:  # texels become a PNG (8-bit) or an EXR
+        elif d["type"] in ("bitmap", "envmap") and "data" in d:  # texels become a PNG (8-bit) or an EXR
             texels = np.asarray(d.pop("data"))
             rel = self.asset("textures", key, "png" if texels.dtype == np.uint8 else "exr", (texels,))
             self.write(rel, lambda path: write_image(path, texels if texels.ndim == 3 else texels[..., None]))

@@ -78,8 +78,9 @@ class Images:
         return uv_map, _FLIP_V @ m @ _FLIP_V
 
 
-def _mapping(node, owner, report):
-    """A Mapping node's map of (u, v) as a 3x3 affine matrix (in Blender's UV frame)."""
+def _mapping_matrix(node, owner, report):
+    """A Mapping node's map as a 4x4 affine matrix: Point and Texture (its inverse) with
+    their Location, Vector without; Normal is reported and ignored."""
     from mathutils import Euler, Matrix
 
     def value(name):
@@ -91,14 +92,18 @@ def _mapping(node, owner, report):
     kind = node.vector_type
     if kind == "NORMAL":
         report.warn(f"{owner}: mapping '{node.name}' of type Normal is ignored")
-        return np.eye(3)
+        return np.eye(4)
     location = value("Location") if kind in ("POINT", "TEXTURE") else (0, 0, 0)
     m = Matrix.LocRotScale(location, Euler(value("Rotation"), "XYZ"), value("Scale"))
     if kind == "TEXTURE":
         m = m.inverted_safe()
-    m = np.array(m, dtype=np.float64)
+    return np.array(m, dtype=np.float64)
+
+
+def _mapping(node, owner, report):
+    """A Mapping node's map of (u, v) as a 3x3 affine matrix (in Blender's UV frame)."""
     # The UV's third coordinate is 0: only x and y and the translation act on (u, v).
-    return m[np.ix_([0, 1, 3], [0, 1, 3])]
+    return _mapping_matrix(node, owner, report)[np.ix_([0, 1, 3], [0, 1, 3])]
 
 
 def _image(image, owner, report):

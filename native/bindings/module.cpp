@@ -659,7 +659,7 @@ PYBIND11_MODULE(_core, m) {
         .def(
             "add_environment",
             [](Scene &s, Array3 scale, std::optional<FloatArray> image, const DoubleArray &to_world,
-               const DoubleArray &to_local, int replace) {
+               const DoubleArray &to_local, int replace, int hidden_from) {
                 EnvironmentLight env;
                 env.scale = vec(scale);
                 env.to_world = transform(to_world);
@@ -673,9 +673,10 @@ PYBIND11_MODULE(_core, m) {
                     for (size_t i = 0; i < env.pixels.size(); ++i)
                         env.pixels[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2]};
                 }
-                return add_or_replace(s, env, replace, 0);
+                return add_or_replace(s, env, replace, hidden_from);
             },
-            py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"), py::arg("replace") = -1)
+            py::arg("scale"), py::arg("image"), py::arg("to_world"), py::arg("to_local"), py::arg("replace") = -1,
+            py::arg("hidden_from") = 0)
         .def(
             "set_camera",
             [](Scene &s, const DoubleArray &to_world, double tan_x, double tan_y, int width, int height,

@@ -69,6 +69,26 @@ def test_f12_equals_rendering_the_exported_directory(blank, tmp_path):
     assert cli.mean() > 0.05
 
 
+def test_an_hdri_world_is_an_environment_map_written_losslessly(blank, tmp_path):
+    """An Environment Texture (a .hdr file turned by a Mapping node) exports as an envmap of
+    the image's linear pixels, written to the directory as an EXR: F12 and the directory
+    render alike, bit for bit. (Its orientation against Cycles: test_parity.py's
+    "environment texture".)"""
+    from parity_scenes import environment_texture
+
+    environment_texture(blank, tmp_path)
+    blank.volpath.seed, blank.volpath.tracer = 5, "nee_mis"
+    world = export_scene(depsgraph()).scene["world"]
+    assert world["type"] == "envmap" and world["data"].shape == (32, 64, 3) and world["scale"] == pytest.approx(1.2)
+    image = bpy.data.images["sky.hdr"]
+    pixels = np.empty(64 * 32 * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    assert np.array_equal(world["data"], pixels.reshape(32, 64, 4)[::-1, :, :3])  # linear, rows top first
+    f12 = render_f12(blank, tmp_path / "f12.exr")
+    cli = volpath.render(volpath.load_file(write_directory(export_scene(depsgraph()), tmp_path / "scene")), seed=5)
+    assert np.array_equal(f12, cli)
+
+
 def test_f12_noise_threshold_renders_to_the_target_error(blank, tmp_path):
     small_scene(blank)
     blank.volpath.seed, blank.volpath.tracer, blank.volpath.spp = 3, "nee_mis", 256

@@ -46,25 +46,19 @@ def build(b, d, key=None):
         info.update(direction=(direction / np.linalg.norm(direction)).tolist(), irradiance=irradiance.tolist())
     elif p.type == "constant":
         radiance = p.rgb("radiance", 1.0, emitted=True)
-        index = n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4), replace)
+        index = n.add_environment(tuple(radiance), None, np.eye(4), np.eye(4), replace, light_hidden_from(p))
         info.update(radiance=radiance.tolist())
     elif p.type == "envmap":
-        from ..exr import read_exr
-
-        path = b.path(p, "filename")
-        if not path.lower().endswith(".exr"):
-            raise p.error("environment maps must be OpenEXR files")
-        try:
-            image = read_exr(path)
-        except ValueError as e:
-            raise p.error(str(e)) from None
+        path, image = _envmap_image(b, p)
         if not np.all(np.isfinite(image)) or image.min() < 0:
             raise p.error(f"{path}: the environment map has negative or non-finite pixels")
         scale = p.float("scale", 1.0, minimum=0.0)
         to_world = p.transform()
         if b.wavelengths is not None:
             image = spectral_colour(image, b.wavelengths, emitted=True).astype(np.float32)
-        index = n.add_environment((scale, scale, scale), image, to_world, np.linalg.inv(to_world), replace)
+        index = n.add_environment(
+            (scale, scale, scale), image, to_world, np.linalg.inv(to_world), replace, light_hidden_from(p)
+        )
         info.update(filename=path, resolution=list(image.shape[1::-1]))
     elif p.type == "sun":
         if p.has("direction"):
@@ -106,3 +100,22 @@ def spot_cone(p, axis):
     cutoff = p.float("cutoff_angle", 20.0, positive=True, maximum=90.0)
     blend = p.float("blend", 0.0, minimum=0.0, maximum=1.0)
     return direction / np.linalg.norm(direction), math.radians(cutoff), blend
+
+
+def _envmap_image(b, p):
+    """(where it came from, (h, w, 3) float32 linear RGB) of an envmap: its OpenEXR file, or
+    Volpath's `data`, the texels of a dictionary (the Blender exporter's worlds)."""
+    if p.has("data"):
+        image = np.asarray(p.raw("data"), dtype=np.float32)
+        if image.ndim != 3 or image.shape[2] != 3 or min(image.shape[:2]) < 1:
+            raise p.error(f"'data' must be an (h, w, 3) array, got shape {image.shape}")
+        return "<data>", image
+    from ..exr import read_exr
+
+    path = b.path(p, "filename")
+    if not path.lower().endswith(".exr"):
+        raise p.error("environment maps must be OpenEXR files")
+    try:
+        return path, read_exr(path)
+    except ValueError as e:
+        raise p.error(str(e)) from None

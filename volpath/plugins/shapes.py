@@ -288,11 +288,11 @@ def _hidden_from(p, kinds=RAY_KINDS):
 
 
 def light_hidden_from(p):
-    """An emitter's `hidden_from` (Blender's ray visibility of lights): `diffuse`, `glossy`,
-    `transmission`, it lights surfaces through their other lobes only; `scatter`, it lights
-    no medium; `shadow`, it casts no shadow (Scene::light_hidden_from in
-    native/include/volpath/scene.h)."""
-    return _hidden_from(p, ("diffuse", "glossy", "transmission", "scatter", "shadow"))
+    """An emitter's `hidden_from` (Blender's ray visibility of lights): `camera`, camera rays
+    do not see it; `diffuse`, `glossy`, `transmission`, it lights surfaces through their
+    other lobes only; `scatter`, it lights no medium; `shadow`, it casts no shadow
+    (Scene::light_hidden_from in native/include/volpath/scene.h)."""
+    return _hidden_from(p, tuple(RAY_KINDS))
 
 
 def rectangle():

@@ -106,7 +106,8 @@ struct Scene {
     std::vector<Medium> media;
     std::vector<Light> lights;
     // Per light, the kinds of rays it is hidden from (RayKind bits, Blender's ray
-    // visibility of lights): Scatter, it lights no medium (neither NEE from a scattering
+    // visibility of lights): Camera, camera rays do not see it (a world that lights the
+    // scene behind another that is shown); Scatter, it lights no medium (neither NEE from a scattering
     // vertex nor a scattered ray that meets it count it); Shadow, it casts no shadow (NEE
     // toward it ignores what lies between, and only camera rays count it where they meet
     // it: NEE alone lights the scene, unweighted); Diffuse, Glossy, Transmission, it lights
@@ -120,6 +121,12 @@ struct Scene {
 
     bool light_hides_from(int light, RayKind kind) const {
         return (light_hidden_from[size_t(light)] & uint8_t(kind)) != 0;
+    }
+    // Whether only camera rays see the light (hidden from every lobe and from media): it
+    // lights nothing, and NEE under MIS never chooses it.
+    bool light_lights_nothing(int light) const {
+        constexpr uint8_t lit = kLobeRays | uint8_t(RayKind::Scatter);
+        return (light_hidden_from[size_t(light)] & lit) == lit;
     }
     int add_bsdf(const BSDF &b);
     int add_medium(const Medium &m);

@@ -64,7 +64,8 @@ Spectrum absorption_radiance(const Scene &scene, Ray ray, int medium, Sampler &s
         const Real t_end = hit ? its.t : ray.t_max;
         if (medium >= 0 && !cross_absorbing(scene.media[medium], ray, t_end, channel, sampler, L, beta, r_u)) break;
         if (!hit) {
-            for (int index : scene.context.infinite_lights) add(infinite_radiance(scene.lights[index], ray.d));
+            for (int index : scene.context.infinite_lights)
+                if (!scene.light_hides_from(index, RayKind::Camera)) add(infinite_radiance(scene.lights[index], ray.d));
             break;
         }
         const ShapeInfo &shape = scene.shapes[its.shape];

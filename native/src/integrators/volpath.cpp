@@ -106,7 +106,8 @@ void Path::add_emission(const Spectrum &emitted, int light, Real pdf_light_dir) 
     if (is_black(emitted)) return;
     // Scene::light_hidden_from: a light hidden from scattered rays; one that casts no
     // shadow, which NEE alone finds wherever it can.
-    if (ray_kind == RayKind::Scatter && scene.light_hides_from(light, RayKind::Scatter)) return;
+    if ((ray_kind == RayKind::Scatter || ray_kind == RayKind::Camera) && scene.light_hides_from(light, ray_kind))
+        return;
     if (feat.nee && !specular_bounce && scene.light_hides_from(light, RayKind::Shadow)) return;
     const Spectrum Le =
         scene.context.lights_hide_lobes && (uint8_t(ray_kind) & kLobeRays) ? emitted * shown_share(light) : emitted;

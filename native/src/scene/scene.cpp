@@ -47,9 +47,10 @@ int Scene::add_medium(const Medium &m) {
 
 namespace {
 void check_hidden_from(uint8_t hidden_from) {
-    if (hidden_from & ~uint8_t(kLobeRays | uint8_t(RayKind::Scatter) | uint8_t(RayKind::Shadow)))
+    if (hidden_from &
+        ~uint8_t(uint8_t(RayKind::Camera) | kLobeRays | uint8_t(RayKind::Scatter) | uint8_t(RayKind::Shadow)))
         throw std::invalid_argument(
-            "a light can be hidden from diffuse, glossy, transmission, scatter and shadow rays only");
+            "a light can be hidden from camera, diffuse, glossy, transmission, scatter and shadow rays only");
 }
 }  // namespace
 
@@ -72,7 +73,8 @@ void Scene::set_light(int i, const Light &l, uint8_t hidden_from) {
 
 Real Scene::light_select_pdf(int light, bool mis) const {
     if (!mis) return lights.empty() ? 0.0 : 1.0 / Real(lights.size());
-    return is_constant_environment(lights[light]) ? 0.0 : 1.0 / Real(context.mis_nee_lights.size());
+    if (is_constant_environment(lights[light]) || light_lights_nothing(light)) return 0.0;
+    return 1.0 / Real(context.mis_nee_lights.size());
 }
 
 Real Scene::collision_light_select_pdf(int light, bool mis) const {
@@ -163,9 +165,10 @@ void sort_lights(const Scene &scene, RenderContext &c) {
         if (std::holds_alternative<PointLight>(l) || std::holds_alternative<DirectionalLight>(l))
             ++c.point_and_directional;
         if (is_infinite(l)) c.infinite_lights.push_back(i);
-        if (!environment) c.segment_lights.push_back(i);
-        if (!is_constant_environment(l)) c.mis_nee_lights.push_back(i);
-        if (environment) {
+        const bool lights_nothing = scene.light_lights_nothing(i);  // a world only shown
+        if (!environment && !lights_nothing) c.segment_lights.push_back(i);
+        if (!is_constant_environment(l) && !lights_nothing) c.mis_nee_lights.push_back(i);
+        if (environment && !lights_nothing) {
             c.collision_nee_lights[0].push_back(i);
             if (!is_constant_environment(l)) c.collision_nee_lights[1].push_back(i);
         }
