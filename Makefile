@@ -82,6 +82,7 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/frame_reuse.py --append bench/RESULTS.md
 	$(PY) bench/animation_cost.py --append bench/RESULTS.md
 	$(PY) bench/motion_blur.py --append bench/RESULTS.md
+	$(PY) bench/surfaces.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --sky --append bench/RESULTS.md
 	test -f out/sunrise/summary.json || $(MAKE) sunrise
