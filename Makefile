@@ -83,6 +83,7 @@ bench: setup $(VENV)/.bench $(SUNRISE_BLEND)
 	$(PY) bench/animation_cost.py --append bench/RESULTS.md
 	$(PY) bench/motion_blur.py --append bench/RESULTS.md
 	$(PY) bench/surfaces.py --append bench/RESULTS.md
+	$(PY) bench/many_lights.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --append bench/RESULTS.md
 	$(PY) bench/cycles_sunrise.py --sky --append bench/RESULTS.md
 	test -f out/sunrise/summary.json || $(MAKE) sunrise

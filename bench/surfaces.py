@@ -190,9 +190,9 @@ def main():
     ap.add_argument("--append")
     args = ap.parse_args()
     import bpy
+    from blender_scenes import blank_scene
 
     import volpath
-    from blender_scenes import blank_scene
 
     cycles_sunrise.TARGET = TARGET
 
@@ -213,10 +213,11 @@ def main():
         ratio = tv / tc if tv and tc else float("nan")
         ratios.append(ratio)
         ladder = "; ".join(
-            f"{spp} spp {ev:.4f} in {sv:.2f} s / {ec:.4f} in {sc:.2f} s"
-            for (sv, ev, spp), (sc, ec, _) in zip(pv, pc)
+            f"{spp} spp {ev:.4f} in {sv:.2f} s / {ec:.4f} in {sc:.2f} s" for (sv, ev, spp), (sc, ec, _) in zip(pv, pc)
         )
-        rows.append(f"| {name} | {tv or float('nan'):.2f} s | {tc or float('nan'):.2f} s | **{ratio:.2f}x** | {ladder} |")
+        rows.append(
+            f"| {name} | {tv or float('nan'):.2f} s | {tc or float('nan'):.2f} s | **{ratio:.2f}x** | {ladder} |"
+        )
         print(rows[-1], flush=True)
     parts = []
     if not args.only or args.only == "lights":
@@ -238,9 +239,7 @@ def main():
         "|---|---|---|---|---|\n"
         + "\n".join(rows)
         + "\n\nThe lit floor taken apart: display RMSE at 64 spp with each light alone and together.\n\n"
-        "| lights | Volpath | Cycles 5.0 | Volpath / Cycles |\n|---|---|---|---|\n"
-        + "\n".join(parts)
-        + "\n",
+        "| lights | Volpath | Cycles 5.0 | Volpath / Cycles |\n|---|---|---|---|\n" + "\n".join(parts) + "\n",
         args.append,
         key="surfaces",
     )

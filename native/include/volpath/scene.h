@@ -11,6 +11,7 @@
 #include "bsdf.h"
 #include "geometry.h"
 #include "light.h"
+#include "light_sampler.h"
 #include "medium.h"
 
 namespace volpath {
@@ -59,6 +60,8 @@ struct RenderContext {
     // drawn in proportion to the scattering function is at least as good a sample of a
     // uniform sky as NEE's uniform one, and the path traces it anyway).
     std::vector<int> mis_nee_lights;
+    // Chooses among mis_nee_lights, where there are several, by their importance at the point.
+    LightSampler nee_sampler;
     // The lights NEE chooses from at a free-flight collision in a homogeneous medium, where
     // every segment estimates the segment lights by a distance of its own: the environments
     // among NEE's lights, [0] without MIS, [1] under MIS.
@@ -161,9 +164,9 @@ struct Scene {
     // the levels of the previous context's while the sun stays within their elevations).
     void build();
 
-    // NEE's probability of choosing `light`: uniform among mis_nee_lights under MIS, else
-    // among all lights.
-    Real light_select_pdf(int light, bool mis) const;
+    // NEE's probability of choosing `light` at p: under MIS, among mis_nee_lights by their
+    // importance at p (RenderContext::nee_sampler); else uniformly among all lights.
+    Real light_select_pdf(int light, bool mis, const Vec3 &p) const;
     // The same at a collision that chooses among collision_nee_lights.
     Real collision_light_select_pdf(int light, bool mis) const;
     bool intersect(const Ray &ray, Intersection &its) const { return geometry.intersect(ray, its); }

@@ -29,8 +29,23 @@ struct Shadow {
 bool trace_shadow(const Scene &scene, Ray ray, int current, const Light &light, bool delta_light, int channel,
                   Sampler &sampler, Shadow &s);
 
-// Next-event estimation from a scattering point: choose a light (uniformly among
-// RenderContext::mis_nee_lights under MIS, else among all lights; on medium segments see `vertex`),
+// NEE's light at p by u, and the probability of choosing it (-1: none): under MIS among
+// RenderContext::mis_nee_lights by their importance at p, at a collision among
+// collision_nee_lights, else uniformly among all lights.
+inline int choose_light(const Scene &scene, const Vec3 &p, bool collision, bool mis, Real u, Real &select) {
+    const RenderContext &c = scene.context;
+    const std::vector<int> *choice = collision ? &c.collision_nee_lights[mis] : (mis ? &c.mis_nee_lights : nullptr);
+    const int n = int(choice ? choice->size() : scene.lights.size());
+    if (n == 0) return -1;
+    if (choice == &c.mis_nee_lights && n > 1) return c.nee_sampler.sample(p, u, select);
+    const int i = std::min(int(u * n), n - 1);
+    select = 1.0 / Real(n);
+    return choice ? (*choice)[size_t(i)] : i;
+}
+
+// Next-event estimation from a scattering point: choose a light (among
+// RenderContext::mis_nee_lights by their importance at p under MIS, else uniformly among all
+// lights; on medium segments see `vertex`),
 // sample a point on it and trace a shadow ray (at the path's `time`) through index-matched
 // boundaries and media. `eval(d, hidden_lobes)` returns the scattering value f (times the cosine, for surfaces; of
 // the lobes the light does not hide from, kLobeRays bits), `pdf(d)` the
@@ -48,13 +63,8 @@ Spectrum sample_direct(const Scene &scene, Real time, const Vec3 &p, const Vec3 
     int light = toward_light ? vertex->light : -1;
     Real select = toward_light ? segment_light_select_pdf(scene) : 0;
     if (!toward_light) {
-        const std::vector<int> *choice =
-            collision ? &scene.context.collision_nee_lights[mis] : (mis ? &scene.context.mis_nee_lights : nullptr);
-        const int n = int(choice ? choice->size() : scene.lights.size());
-        if (n == 0) return Spectrum(0.0);
-        const int i = std::min(int(sampler.next_1d() * n), n - 1);
-        light = choice ? (*choice)[size_t(i)] : i;
-        select = 1.0 / Real(n);
+        light = choose_light(scene, p, collision, mis, sampler.next_1d(), select);
+        if (light < 0) return Spectrum(0.0);
     }
     if (!surface && scene.light_hides_from(light, RayKind::Scatter)) return Spectrum(0.0);
     // A light that casts no shadow: nothing to trace toward it, and nothing to weigh NEE

@@ -126,8 +126,8 @@ void Path::add_emission(const Spectrum &emitted, int light, Real pdf_light_dir) 
                     average(r_ld * light_distance_density(scene.lights[light], v.ray, v.t_end, v.sigma_t, v.t) *
                             (segment_light_select_pdf(scene) * pdf_light_dir));
             }
-            const Real select =
-                scattered_at ? scene.collision_light_select_pdf(light, true) : scene.light_select_pdf(light, true);
+            const Real select = scattered_at ? scene.collision_light_select_pdf(light, true)
+                                             : scene.light_select_pdf(light, true, prev_p);
             const Spectrum r_light = r_l * (select * pdf_light_dir);
             L += beta * Le * mis_over_a(average(r_u), average(r_light), r_light_distance);
         }

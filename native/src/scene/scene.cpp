@@ -71,10 +71,12 @@ void Scene::set_light(int i, const Light &l, uint8_t hidden_from) {
     built = false;
 }
 
-Real Scene::light_select_pdf(int light, bool mis) const {
+Real Scene::light_select_pdf(int light, bool mis, const Vec3 &p) const {
     if (!mis) return lights.empty() ? 0.0 : 1.0 / Real(lights.size());
     if (is_constant_environment(lights[light]) || light_lights_nothing(light)) return 0.0;
-    return 1.0 / Real(context.mis_nee_lights.size());
+    // One candidate is always chosen (whatever its importance: a single light's images keep
+    // their bits).
+    return context.mis_nee_lights.size() == 1 ? 1.0 : context.nee_sampler.pdf(p, light);
 }
 
 Real Scene::collision_light_select_pdf(int light, bool mis) const {
@@ -291,6 +293,7 @@ void Scene::build() {
     for (Light &l : lights) prepare_light(l, geometry);
     RenderContext c;
     sort_lights(*this, c);
+    if (c.mis_nee_lights.size() > 1) c.nee_sampler = LightSampler(lights, c.mis_nee_lights, geometry);
     find_medium_containers(*this, c);
     find_boundaries_with_contact(*this, c);
     c.shadows_stop_at_any_hit = std::none_of(shapes.begin(), shapes.end(), [&](const ShapeInfo &s) {
