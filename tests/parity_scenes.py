@@ -140,6 +140,30 @@ def emission_shader(scene):
     bpy.context.object.data.materials.append(m)
 
 
+def emission_map(scene):
+    """A panel whose Emission colour is an image (warm and cool squares), lighting the floor
+    and a cube and seen by the camera."""
+    _floor(), _view(scene)
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.8, -0.5, 0.4))
+    bpy.context.object.data.materials.append(material("chalk", Base_Color=(0.8, 0.8, 0.8, 1), Specular_IOR_Level=0.0))
+    bpy.ops.mesh.primitive_plane_add(size=2, location=(0, 1, 1.2), rotation=(math.radians(70), 0, 0))
+    image = bpy.data.images.new("panel", 4, 4)
+    u, v = np.meshgrid(np.arange(4), np.arange(4))
+    texels = np.where(((u + v) % 2 == 0)[..., None], [1.0, 0.6, 0.2, 1.0], [0.2, 0.5, 1.0, 1.0])
+    image.pixels.foreach_set(texels.astype(np.float32).ravel())
+    image.pack()
+    m = bpy.data.materials.new("panel")
+    tree = m.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    emit, tex = tree.nodes.new("ShaderNodeEmission"), tree.nodes.new("ShaderNodeTexImage")
+    tex.image, tex.interpolation = image, "Closest"
+    emit.inputs["Strength"].default_value = 8.0
+    tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
+    tree.links.new(emit.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    bpy.context.object.data.materials.append(m)
+    set_background(scene, (0.02, 0.02, 0.02))
+
+
 def glass_and_metal(scene):
     _floor(), _view(scene)
     bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(-1, 0, 0.7), segments=64, ring_count=32)
@@ -315,6 +339,7 @@ SCENES = {
     "light visibility": light_visibility,
     "light lobes": light_lobes,
     "emission shader": emission_shader,
+    "emission map": emission_map,
     "glass and metal": glass_and_metal,
     "textured principled": textured_principled,
     "coloured volume": coloured_volume,

@@ -254,7 +254,7 @@ def _mesh_shapes(obj, inst, meshes_by_data, material, exterior, report):
             shape["uvs"] = uvs
         if mat.radiance is not None:
             # Cycles' emission shaders light both faces of a mesh.
-            shape["emitter"] = {"type": "area", "radiance": convert.rgb(mat.radiance), "twosided": True}
+            shape["emitter"] = {**materials.emitter(mat.radiance), "twosided": True}
         if interior is not None:
             shape["interior"] = interior
             if exterior is not None:

@@ -32,9 +32,23 @@ from . import convert, textures
 DEFAULT_SURFACE = {"type": "diffuse", "reflectance": convert.rgb((0.8, 0.8, 0.8))}
 
 
+class EmissionMap(NamedTuple):
+    """Emission whose colour is an image: the bitmap times `scale` (rgb)."""
+
+    bitmap: dict
+    scale: np.ndarray
+
+
+def emitter(radiance):
+    """The area emitter of a material's radiance (an rgb or an EmissionMap)."""
+    if isinstance(radiance, EmissionMap):
+        return {"type": "area", "radiance": radiance.bitmap, "scale": convert.rgb(radiance.scale)}
+    return {"type": "area", "radiance": convert.rgb(radiance)}
+
+
 class Material(NamedTuple):
     bsdf: dict
-    radiance: object  # emitted radiance (rgb) or None
+    radiance: object  # emitted radiance (rgb, or an EmissionMap) or None
     medium: dict | None  # the volume's description (sigma_a, sigma_s, g, ...)
     uv_map: str | None  # the UV map its textures read ("" for the render one), None if none
 
@@ -130,7 +144,7 @@ def _surface(node, owner, report, images):
         colour = get("Color")  # Cycles' glass colour tints both lobes
         bsdf = _glass(get("IOR"), get("Roughness"), reflectance=colour, transmittance=colour)
     elif kind == "ShaderNodeEmission":
-        return {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}, get("Color") * get("Strength")
+        return {"type": "diffuse", "reflectance": convert.rgb((0, 0, 0))}, _emission(get, "Color", "Strength")
     else:
         report.warn(f"{owner}: surface node '{node.name}' ({node.bl_label}) is not supported; using a grey diffuse")
         return DEFAULT_SURFACE, None
@@ -143,9 +157,17 @@ def _surface(node, owner, report, images):
     return bsdf, radiance
 
 
+def _emission(get, colour, strength):
+    """Colour x strength: an rgb, or an EmissionMap where an image gives the colour; None
+    where nothing is emitted."""
+    c, k = get.texture(colour), get(strength)
+    if isinstance(c, dict):
+        return EmissionMap(c, np.full(3, float(k))) if k > 0 else None
+    return c * k if np.any(c * k > 0) else None
+
+
 def _principled(get, owner, report):
-    emission = get("Emission Color") * get("Emission Strength")
-    radiance = emission if np.any(emission > 0) else None
+    radiance = _emission(get, "Emission Color", "Emission Strength")
     for name in ("Coat Weight", "Sheen Weight", "Subsurface Weight"):
         if get(name) > 0:
             report.warn(f"{owner}: '{name}' is not supported (ignored)")
@@ -198,8 +220,14 @@ def _mix(node, owner, report, images):
     (a, ra), (b, rb) = parts
     radiance = None
     if ra is not None or rb is not None:
+        maps = [r for r in (ra, rb) if isinstance(r, EmissionMap)]
         if isinstance(fac, dict):
             report.warn(f"{owner}: emission mixed by a texture is not supported (none emitted)")
+        elif maps and (ra is not None and rb is not None):
+            report.warn(f"{owner}: an emission map mixed with other emission is not supported (the map alone)")
+            radiance = maps[0]
+        elif maps:
+            radiance = maps[0]._replace(scale=maps[0].scale * (1 - fac if ra is not None else fac))
         else:
             zero = np.zeros(3)
             radiance = (1 - fac) * (zero if ra is None else ra) + fac * (zero if rb is None else rb)

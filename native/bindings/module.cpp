@@ -503,9 +503,11 @@ PYBIND11_MODULE(_core, m) {
             [](Scene &s, const DoubleArray &positions, const TriangleArray &triangles,
                std::optional<DoubleArray> normals, int bsdf, int interior, int exterior, bool medium_interface,
                std::optional<Array3> radiance, std::optional<DoubleArray> uvs, int hidden_from, bool emitter_twosided,
-               double emitter_spread, int emitter_hidden_from, int group, std::optional<DoubleArray> motion) {
-                const AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
-                                            uint8_t(emitter_hidden_from)};
+               double emitter_spread, int emitter_hidden_from, int group, std::optional<DoubleArray> motion,
+               int emitter_texture) {
+                AreaEmission emission{radiance ? vec(*radiance) : Spectrum(0.0), emitter_twosided, emitter_spread,
+                                      uint8_t(emitter_hidden_from)};
+                emission.texture = emitter_texture;
                 return s.add_shape_mesh(triangle_mesh(positions, triangles, normals, uvs, motion),
                                         shape_info(bsdf, interior, exterior, medium_interface, hidden_from),
                                         radiance ? &emission : nullptr, group);
@@ -514,7 +516,7 @@ PYBIND11_MODULE(_core, m) {
             py::arg("exterior") = -1, py::arg("medium_interface") = false, py::arg("radiance") = py::none(),
             py::arg("uvs") = py::none(), py::arg("hidden_from") = 0, py::arg("emitter_twosided") = false,
             py::arg("emitter_spread") = kPi, py::arg("emitter_hidden_from") = 0, py::arg("group") = -1,
-            py::arg("motion") = py::none())
+            py::arg("motion") = py::none(), py::arg("emitter_texture") = -1)
         .def("add_group", &Scene::add_group, "A new, empty shape group (Mitsuba's shapegroup); its index.")
         .def(
             "set_instances",

@@ -133,10 +133,24 @@ def test_sampling_settings_and_uv_maps(blank, tmp_path):
 
 def test_unsupported_texture_inputs_warn(blank, tmp_path):
     image = bpy.data.images.load(quadrants(tmp_path / "q.png"))
-    m, tex = textured_material("glowing", image, socket="Emission Color")
+    m, tex = textured_material("refracting", image, socket="IOR")
     plane_under_white_sky(blank, m)
     warnings = export_scene(depsgraph()).warnings
-    assert any("'Emission Color'" in w and "driven by nodes" in w for w in warnings)
+    assert any("'IOR'" in w and "driven by nodes" in w for w in warnings)
+
+
+def test_an_image_on_emission_color_is_an_emission_map(blank, tmp_path):
+    """Emission Color from an image: the plane's area emitter takes the bitmap as its
+    radiance, times Emission Strength, and the mesh keeps its UVs (tests/parity_scenes.py's
+    "emission map" renders it beside Cycles)."""
+    image = bpy.data.images.load(quadrants(tmp_path / "q.png"))
+    m, tex = textured_material("glowing", image, socket="Emission Color")
+    m.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 3.0
+    plane_under_white_sky(blank, m)
+    shape = export_scene(depsgraph()).scene["Plane"]
+    assert shape["emitter"]["radiance"]["type"] == "bitmap"
+    assert shape["emitter"]["scale"]["value"] == pytest.approx([3.0] * 3)
+    assert shape["uvs"].shape == (len(shape["positions"]), 2)
 
 
 def test_an_images_alpha_output_makes_a_mask(blank):

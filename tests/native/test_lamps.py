@@ -1,6 +1,7 @@
 """Blender's lamps against closed forms: a spot's cone with its smoothstep Blend, a sphere
 lamp (a point lamp with a Radius) and its Soft Falloff, on a diffuse floor seen from
-straight above (direct light only).
+straight above (direct light only); and an emission map, found alike by NEE and by the
+path.
 
 Each pixel's expectation is the closed-form radiance averaged over the pixel (16x16
 points: the box filter's jitter), so the renders are held to it by a z-test over
@@ -86,3 +87,35 @@ def test_bad_spots_are_errors_naming_the_parameter():
         )
         with pytest.raises(volpath.SceneError, match=f"'{bad}' must be {message}"):
             volpath.load_string(_scene(lamp))
+
+
+OBLIQUE = S.camera(res=16, fov=70, origin="0, 0.5, 3", target="0, -0.2, 0", spp=16)
+
+
+def _emission_map_scene(camera=OBLIQUE):
+    """A floor lit by a quad facing down whose radiance is a checkerboard (an emission map)."""
+    quad = """<shape type="rectangle">
+        <transform name="to_world"><scale value="1.0"/><rotate x="1" angle="90"/><translate y="1.5"/></transform>
+        <emitter type="area"><texture type="checkerboard" name="radiance">
+            <rgb name="color0" value="4, 1, 0.5"/><rgb name="color1" value="0.5, 2, 6"/>
+            <transform name="to_uv"><scale value="2"/></transform></texture>
+            <rgb name="scale" value="1.5, 1.5, 1.5"/></emitter></shape>"""
+    return S.scene(camera, S.floor(y=-0.5, size=4), quad, max_depth=3)
+
+
+def test_an_emission_map_lights_alike_whichever_strategy_finds_it():
+    """NEE draws the map at the point it samples on the quad, a BSDF's sample looks it up
+    where it hits: the tracer that combines both (nee_mis) and the one that only follows
+    the path (multiple) agree, block by block."""
+    scene = volpath.load_string(_emission_map_scene())
+    a = render_batches(volpath.render, scene, 8, block=4, tracer="nee_mis")
+    b = render_batches(volpath.render, scene, 8, block=4, tracer="multiple")
+    assert a[0].mean() > 0.05
+    assert max_z(*a, *b) < 5
+
+
+def test_an_emission_map_is_seen_as_its_texture_times_its_scale():
+    looking_up = S.camera(res=32, fov=30, origin="0, 0, 0", target="0, 1, 0", up="0, 0, -1", spp=4)
+    image = volpath.render(volpath.load_string(_emission_map_scene(looking_up)), tracer="absorption", seed=1)
+    colours = {tuple(np.round(c, 3)) for c in image.reshape(-1, 3) if c.max() > 0}
+    assert {(6.0, 1.5, 0.75), (0.75, 3.0, 9.0)} <= colours

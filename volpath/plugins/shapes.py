@@ -19,7 +19,7 @@ def build(b, d, group=-1):
     p = b.params(d, "shape")
     to_world = p.transform()
     bsdf_index, radiance, interior, exterior, bsdf_type = None, None, -1, -1, "diffuse"
-    emitter_twosided, emitter_spread, emitter_hidden_from = False, math.pi, 0
+    emitter_twosided, emitter_spread, emitter_hidden_from, emitter_texture = False, math.pi, 0, -1
     sphere_emission = {}
     for key, v in d.items():
         if not isinstance(v, dict) or key == "to_world":
@@ -35,7 +35,7 @@ def build(b, d, group=-1):
             ep = b.params(r, "emitter")
             if ep.type != "area":
                 raise ep.error("only 'area' emitters can be attached to shapes")
-            radiance = ep.rgb("radiance", 1.0, emitted=True)
+            radiance, emitter_texture = _radiance(b, ep, p.type)
             emitter_twosided = ep.bool("twosided", False)  # Volpath's: both faces emit (Blender's)
             # Volpath's: Blender's Spread, the full angle in degrees around the normal.
             spread = ep.float("spread", 180.0)
@@ -66,6 +66,7 @@ def build(b, d, group=-1):
         raise p.error("a shape in a shapegroup can neither emit nor bound a medium")
     if group >= 0 and p.type == "sphere":
         raise p.error("a shapegroup holds meshes only (rectangle, cube, obj, ply, mesh), not spheres")
+    mesh_emission = {} if emitter_texture < 0 else {"emitter_texture": emitter_texture}
     common = dict(
         bsdf=bsdf_index,
         interior=interior,
@@ -113,7 +114,9 @@ def build(b, d, group=-1):
         positions, triangles, normals, uvs, motion = mesh_data(b, p, to_world, flip)
         if motion is not None and group < 0:
             raise p.error("only a shapegroup's meshes deform in the shutter ('motion'): place it by an instance")
-        index = b.native.add_mesh(positions, triangles, normals, uvs=uvs, group=group, motion=motion, **common)
+        index = b.native.add_mesh(
+            positions, triangles, normals, uvs=uvs, group=group, motion=motion, **common, **mesh_emission
+        )
         bounds = np.array([positions.min(axis=0), positions.max(axis=0)])
         b.summary["shapes"].append(
             {
@@ -285,6 +288,21 @@ def _hidden_from(p, kinds=RAY_KINDS):
     if unknown:
         raise p.error(f"unknown ray kind(s) {', '.join(unknown)} in 'hidden_from' (expected: {', '.join(kinds)})")
     return sum({RAY_KINDS[n] for n in names})
+
+
+def _radiance(b, ep, shape_type):
+    """(radiance, emission map's texture index or -1) of an area emitter: an RGB, or (Mitsuba)
+    a texture, then times Volpath's `scale` (default 1: Blender's Emission Strength)."""
+    v = ep.raw("radiance", 1.0)
+    if not (isinstance(v, dict) and kind_of(b.resolve(v)) == "texture"):
+        return ep.rgb("radiance", 1.0, emitted=True), -1
+    if shape_type == "sphere":
+        raise ep.error("an emission map needs a mesh, not a sphere")
+    if b.wavelengths is not None:
+        raise ep.error("an emission map is rendered in RGB only, not in a spectral pass")
+    from . import textures
+
+    return ep.rgb("scale", 1.0, emitted=True), textures.build(b, v)
 
 
 def light_hidden_from(p):

@@ -3,11 +3,13 @@
 // found by another strategy must agree with it (checked by the chi-square tests).
 #pragma once
 
+#include <memory>
 #include <stdexcept>
 #include <variant>
 #include <vector>
 
 #include "geometry.h"
+#include "texture.h"
 #include "warp.h"
 
 namespace volpath {
@@ -61,6 +63,11 @@ struct AreaLight {
     // soft_radius = r).
     SpotCone spot;
     Real soft_radius = 0;
+    // An emission map (Blender's Emission Color from an image): radiance x texture(uv) on
+    // a mesh; its own copy, so that lights need nothing but the geometry. mean_texture: its
+    // texels' mean luminance (for the light's importance).
+    std::shared_ptr<const Texture> texture;
+    Real mean_texture = 1;
 };
 
 // What a shape emits: an area light's radiance, its faces, its spread, spot cone, soft
@@ -72,6 +79,7 @@ struct AreaEmission {
     uint8_t hidden_from = 0;  // Scene::light_hidden_from
     SpotCone spot;
     bool soft_falloff = false;
+    int texture = -1;  // an emission map among the scene's textures (meshes only)
 };
 
 // The cosine at which light from an area light's point with normal n leaves toward a
@@ -105,6 +113,10 @@ inline Spectrum area_radiance(const AreaLight &l, const Vec3 &n, const Vec3 &d, 
     }
     return l.radiance * f;
 }
+
+// The same at a point `its` found on the light's shape (an emission map looked up there).
+Spectrum area_radiance(const AreaLight &l, const Geometry &geometry, const Intersection &its, const Vec3 &d,
+                       const Vec3 &ref);
 
 // Radiance arriving from infinity: a constant, or a latitude-longitude map (Mitsuba's
 // convention: y up, u = atan2(x, -z) / 2 pi, v = acos(y) / pi) times `scale`.

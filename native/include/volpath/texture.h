@@ -46,6 +46,8 @@ Spectrum eval_texture(const Texture &texture, Vec2 uv);
 // A step in uv for finite differences of the texture: half a texel of a bitmap.
 Real texture_step(const Texture &texture);
 size_t texture_bytes(const Texture &texture);
+// The mean luminance of the texture's values over [0, 1]^2 (a bitmap's texels).
+Real mean_luminance(const Texture &texture);
 
 // 8-bit sRGB to linear.
 Real srgb_to_linear(uint8_t v);

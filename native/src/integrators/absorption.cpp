@@ -71,7 +71,7 @@ Spectrum absorption_radiance(const Scene &scene, Ray ray, int medium, Sampler &s
         const ShapeInfo &shape = scene.shapes[its.shape];
         if (!shape.hides_from(RayKind::Camera)) {
             if (shape.light >= 0) {
-                add(area_radiance(std::get<AreaLight>(scene.lights[shape.light]), its.n, ray.d, camera));
+                add(area_radiance(std::get<AreaLight>(scene.lights[shape.light]), scene.geometry, its, ray.d, camera));
             }
             // The surface stops the ray unless it is a boundary or lets it through (a mask).
             const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];

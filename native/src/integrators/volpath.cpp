@@ -464,7 +464,7 @@ Step Path::at_surface(const Intersection &its) {
     if (shape.hides_from(ray_kind)) return pass_through();
     if (shape.light >= 0) {
         const auto &area = std::get<AreaLight>(scene.lights[shape.light]);
-        if (const Spectrum Le = area_radiance(area, its.n, ray.d, prev_p); !is_black(Le))
+        if (const Spectrum Le = area_radiance(area, scene.geometry, its, ray.d, prev_p); !is_black(Le))
             add_emission(Le, shape.light, light_pdf(scene.lights[shape.light], scene.geometry, prev_p, ray.d, its));
     }
     const BSDF &given = scene.bsdfs[size_t(shape.bsdf)];

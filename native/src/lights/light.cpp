@@ -96,6 +96,7 @@ struct Sample {
         out.delta = false;
         Vec3 p, n;
         Real pdf_area;
+        Spectrum tint(1.0);  // the emission map's at the point
         if (sg.is_sphere()) {
             const Sphere &s = geometry.spheres[sg.index];
             const Vec3 to_center = s.center - ref;
@@ -133,6 +134,15 @@ struct Sample {
             p = p0 * (1 - b.x - b.y) + p1 * b.x + p2 * b.y;
             n = normalize(cross(p1 - p0, p2 - p0));
             pdf_area = 1.0 / l.area;
+            if (l.texture) {  // at the point's texture coordinates, as Geometry::uv gives them
+                const Real b0 = 1 - b.x - b.y;
+                Vec2 uv = b;
+                if (!m.uvs.empty()) {
+                    const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
+                    uv = {t0.x * b0 + t1.x * b.x + t2.x * b.y, t0.y * b0 + t1.y * b.x + t2.y * b.y};
+                }
+                tint = eval_texture(*l.texture, uv);
+            }
         }
         const Vec3 to = p - ref;
         const Real d2 = length_squared(to);
@@ -142,7 +152,7 @@ struct Sample {
         const Real cos_l = emitting_cos(l, n, out.d);
         if (cos_l <= 0) return false;  // the back of a one-sided emitter is dark
         out.pdf = pdf_area * d2 / cos_l;
-        out.L = area_radiance(l, n, out.d, ref);
+        out.L = area_radiance(l, n, out.d, ref) * tint;
         return true;
     }
 };
@@ -231,6 +241,12 @@ bool sample_light(const Light &light, const Geometry &geometry, const Vec3 &ref,
 
 Real light_pdf(const Light &light, const Geometry &geometry, const Vec3 &ref, const Vec3 &d, const Intersection &its) {
     return std::visit(Pdf{geometry, ref, d, its}, light);
+}
+
+Spectrum area_radiance(const AreaLight &l, const Geometry &geometry, const Intersection &its, const Vec3 &d,
+                       const Vec3 &ref) {
+    const Spectrum L = area_radiance(l, its.n, d, ref);
+    return l.texture && !is_black(L) ? L * eval_texture(*l.texture, geometry.uv(its)) : L;
 }
 
 Spectrum infinite_radiance(const Light &light, const Vec3 &d) {

@@ -33,9 +33,10 @@ struct Bound {
         LightBound b;
         // The spread's slats pass tan(h) x normalization along the normal: its peak.
         const Real peak = l.spread >= kPi ? 1.0 : l.tan_half_spread * l.spread_normalization;
-        b.power = luminance(l.radiance) * peak;
+        const Real radiance = luminance(l.radiance) * l.mean_texture;
+        b.power = radiance * peak;
         b.area = l.area;
-        b.flux = luminance(l.radiance) * kPi * l.area * (l.twosided ? 2 : 1);
+        b.flux = radiance * kPi * l.area * (l.twosided ? 2 : 1);
         const ShapeGeometry &sg = geometry.shapes[size_t(l.shape)];
         if (sg.is_sphere()) {
             const Sphere &s = geometry.spheres[sg.index];

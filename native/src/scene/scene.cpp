@@ -106,12 +106,16 @@ void check_mesh(const TriangleMesh &mesh) {
         if (key.size() != mesh.positions.size()) throw std::invalid_argument("each motion key needs every position");
 }
 
-AreaLight area_light(int shape, const AreaEmission &e) {
+AreaLight area_light(const Scene &scene, int shape, const AreaEmission &e) {
     if (!(e.spread > 0 && e.spread <= kPi)) throw std::invalid_argument("an area light's spread must be in (0, pi]");
     AreaLight light{shape, e.radiance};
     light.twosided = e.twosided, light.spread = e.spread;
     light.spot = e.spot;
     light.soft_radius = e.soft_falloff ? 1 : 0;  // prepare_light sets the sphere's radius
+    if (e.texture >= 0) {
+        light.texture = std::make_shared<const Texture>(scene.textures.at(size_t(e.texture)));
+        light.mean_texture = mean_luminance(*light.texture);
+    }
     return light;
 }
 }  // namespace
@@ -127,7 +131,7 @@ int Scene::add_shape_mesh(TriangleMesh mesh, const ShapeInfo &info, const AreaEm
     geometry_built = false;
     const int id = geometry.add_mesh(std::move(mesh), group);
     shapes.push_back(info);
-    if (emission) shapes.back().light = add_light(area_light(id, *emission), emission->hidden_from);
+    if (emission) shapes.back().light = add_light(area_light(*this, id, *emission), emission->hidden_from);
     built = false;
     return id;
 }
@@ -136,9 +140,10 @@ int Scene::add_shape_sphere(const Sphere &s, const ShapeInfo &info, const AreaEm
     check_info(*this, info);
     if (!(s.radius > 0)) throw std::invalid_argument("sphere radius must be positive");
     geometry_built = false;
+    if (emission && emission->texture >= 0) throw std::invalid_argument("only meshes take an emission map");
     const int id = geometry.add_sphere(s);
     shapes.push_back(info);
-    if (emission) shapes.back().light = add_light(area_light(id, *emission), emission->hidden_from);
+    if (emission) shapes.back().light = add_light(area_light(*this, id, *emission), emission->hidden_from);
     built = false;
     return id;
 }

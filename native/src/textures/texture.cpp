@@ -83,4 +83,14 @@ size_t texture_bytes(const Texture &texture) {
     return sizeof(CheckerboardTexture);
 }
 
+Real mean_luminance(const Texture &texture) {
+    if (const auto *c = std::get_if<CheckerboardTexture>(&texture))
+        return (luminance(c->color0) + luminance(c->color1)) / 2;
+    const auto &b = std::get<BitmapTexture>(texture);
+    Real sum = 0;
+    for (int y = 0; y < b.height; ++y)
+        for (int x = 0; x < b.width; ++x) sum += luminance(b.texel(x, y));
+    return b.width * b.height > 0 ? sum / (Real(b.width) * b.height) : 0.0;
+}
+
 }  // namespace volpath
