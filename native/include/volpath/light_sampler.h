@@ -22,7 +22,7 @@ struct LightBound {
     enum class Kind : uint8_t { Distant, Point, Area, Sphere };
     Kind kind = Kind::Distant;
     Real power = 0;  // luminance: a distant light's irradiance, a point's intensity, an area's peak radiance
-    Vec3 position;   // a point light's; a sphere's centre
+    Vec3 position;   // a point light's; a sphere's centre; a point of a flat area light's plane
     Bounds bounds;   // where a local light lies
     Real area = 0, radius = 0;
     Vec3 facing{0.0};  // a flat one-sided area light's normal (the side it lights); else zero
@@ -62,7 +62,6 @@ private:
     std::vector<int> distant_, local_;  // candidates by kind (places)
     std::vector<Node> nodes_;           // the tree over local_ (root first), if it has more than kLinearLights
     std::vector<uint64_t> trail_;       // per candidate in the tree: its path from the root, a bit per level
-    std::vector<uint8_t> depth_;
 
     void build(int index, std::vector<int> &slots, size_t begin, size_t end, uint64_t trail, int depth);
     Real node_importance(const Node &n, const Vec3 &p) const;

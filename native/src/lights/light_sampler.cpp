@@ -48,7 +48,10 @@ struct Bound {
         b.kind = LightBound::Kind::Area;
         const TriangleMesh &m = geometry.meshes[sg.index];
         for (const Vec3 &v : m.positions) b.bounds.extend(v);
-        if (!l.twosided && !m.triangles.empty()) b.facing = flat_normal(m);
+        if (!l.twosided && !m.triangles.empty()) {
+            b.facing = flat_normal(m);
+            b.position = m.positions[m.triangles[0][0]];  // a point of its plane
+        }
         return b;
     }
 
@@ -57,13 +60,15 @@ struct Bound {
         b.power = power;
         return b;
     }
-    // The normal of a flat mesh (its side that emits), or zero where it is not flat.
+    // The normal of a flat mesh whose triangles all face one way (the side it lights), or
+    // zero where it is not flat or they do not.
     static Vec3 flat_normal(const TriangleMesh &m) {
         Vec3 n(0.0);
-        for (size_t i = 0; i < m.triangles.size() && is_black(n); ++i) {
-            const auto &t = m.triangles[i];
+        for (const auto &t : m.triangles) {
             const Vec3 c = cross(m.positions[t[1]] - m.positions[t[0]], m.positions[t[2]] - m.positions[t[0]]);
-            if (length_squared(c) > 0) n = normalize(c);
+            if (!(length_squared(c) > 0)) continue;
+            if (is_black(n)) n = normalize(c);
+            if (dot(c, n) <= 0) return Vec3(0.0);
         }
         const Vec3 &o = m.positions[m.triangles[0][0]];
         for (const Vec3 &v : m.positions)
@@ -97,8 +102,8 @@ Real light_importance(const LightBound &b, const Vec3 &p) {
             return b.power * solid_angle;
         }
         case LightBound::Kind::Area: {
-            // In front of a flat one-sided light's plane only (its centre of bounds on it).
-            if (!is_black(b.facing) && dot(p - b.bounds.centroid(), b.facing) <= 0) return 0;
+            // In front of a flat one-sided light's plane only.
+            if (!is_black(b.facing) && dot(p - b.position, b.facing) <= 0) return 0;
             const Real d2 = distance_squared(b.bounds, p);
             return b.power * std::min(d2 > 0 ? b.area / d2 : kInfinity, 2 * kPi);
         }
@@ -116,7 +121,6 @@ LightSampler::LightSampler(const std::vector<Light> &lights, const std::vector<i
     }
     if (local_.size() > kLinearLights) {
         trail_.assign(bounds_.size(), 0);
-        depth_.assign(bounds_.size(), 0);
         std::vector<int> slots = local_;
         nodes_.resize(1);
         build(0, slots, 0, slots.size(), 0, 0);
@@ -136,7 +140,7 @@ void LightSampler::build(int index, std::vector<int> &slots, size_t begin, size_
     }
     if (end - begin == 1) {
         node.slot = slots[begin];
-        trail_[size_t(node.slot)] = trail, depth_[size_t(node.slot)] = uint8_t(depth);
+        trail_[size_t(node.slot)] = trail;
         nodes_[size_t(index)] = node;
         return;
     }
