@@ -178,6 +178,18 @@ BAD = {
     ),
     "bad film": (S.scene(S.camera(res=0)), r"<string>:\d+: .*film size"),
     "area emitter alone": (S.scene(S.camera(), '<emitter type="area"/>'), r"<string>:\d+: .*nested inside a shape"),
+    "stretched sphere": (
+        S.scene(S.camera(), '<shape type="sphere"><transform name="to_world"><scale x="2"/></transform></shape>'),
+        r"<string>:\d+: .*must be a similarity",
+    ),
+    "emission map on a sphere": (
+        S.scene(
+            S.camera(),
+            '<shape type="sphere"><emitter type="area"><texture type="checkerboard" name="radiance"/></emitter>'
+            "</shape>",
+        ),
+        r"<string>:\d+: .*emission map needs a mesh",
+    ),
     "unknown element": (
         S.scene(S.camera(), '<shape type="sphere"><colour name="x" value="1"/></shape>'),
         r"<string>:\d+: unknown element <colour>",

@@ -82,13 +82,14 @@ def build(b, d, group=-1):
     if p.type == "sphere":
         center = transform_points(to_world, p.vec3("center", [0, 0, 0])[None])[0]
         radius = p.float("radius", 1.0, positive=True)
-        lin = to_world[:3, :3]
-        scales = np.linalg.norm(lin, axis=0)
-        if not np.allclose(scales, scales[0], rtol=1e-6) or not np.allclose(
-            lin.T @ lin, np.diag(scales**2), atol=1e-9 * scales.max() ** 2
-        ):
-            raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
-        radius *= scales[0]
+        if p.has("to_world"):  # (without one, as Blender's lamps are written: nothing to check)
+            lin = to_world[:3, :3]
+            scales = np.linalg.norm(lin, axis=0)
+            if not np.allclose(scales, scales[0], rtol=1e-6) or not np.allclose(
+                lin.T @ lin, np.diag(scales**2), atol=1e-9 * scales.max() ** 2
+            ):
+                raise p.error("sphere to_world must be a similarity (uniform scale, rotation, translation)")
+            radius *= scales[0]
         index = b.native.add_sphere(tuple(center), radius, flip, **common, **sphere_emission)
         bounds = np.array([center - radius, center + radius])
         b.summary["shapes"].append(
