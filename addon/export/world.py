@@ -143,12 +143,14 @@ def _environment(node, strength, owner, report):
     """An Environment Texture as an `envmap`: the image's pixels (any file Blender loads,
     linear), equirectangular or resampled from a mirror ball, turned as the Mapping nodes
     in front of it turn the direction it looks up."""
+    from volpath.tonemap import srgb_to_linear
+
     from .textures import _LINEAR, _pixels
 
     image = node.image
     texels = _pixels(image, f"world '{owner}'")[:, :, :3].astype(np.float64)
     if not image.is_float and image.colorspace_settings.name not in _LINEAR:
-        texels = np.where(texels <= 0.04045, texels / 12.92, ((texels + 0.055) / 1.055) ** 2.4)
+        texels = srgb_to_linear(texels)
     if node.projection == "MIRROR_BALL":
         texels = _mirror_ball_to_equirectangular(texels)
     rotation = _direction_map(node, owner, report)
@@ -165,9 +167,11 @@ def _environment(node, strength, owner, report):
 
 
 def _direction_map(node, owner, report):
-    """The 3x3 map that Mapping nodes (and a Texture Coordinate's Generated output, the
-    world's direction) apply to the direction an Environment Texture looks up: rotation and
-    scale; their Location moves no direction."""
+    """The rotation that Mapping nodes (and a Texture Coordinate's Generated output, the
+    world's direction) apply to the direction an Environment Texture looks up. Their
+    Location moves no direction and a uniform Scale changes none; a non-uniform one would
+    bend the map's solid angles, which its importance sampling assumes unbent: it is
+    reported and left out."""
     from .textures import _mapping_matrix
 
     m, socket = np.eye(3), node.inputs["Vector"]
@@ -185,7 +189,10 @@ def _direction_map(node, owner, report):
                 "using the view direction"
             )
             break
-    return m
+    u, scales, vt = np.linalg.svd(m)
+    if not np.allclose(scales, scales[0], rtol=1e-6):
+        report.warn(f"world '{owner}': a non-uniform Scale of the Environment Texture's mapping is ignored")
+    return u @ vt  # the nearest orthogonal map: the rotation alone
 
 
 def _mirror_ball_to_equirectangular(ball):

@@ -87,6 +87,13 @@ def test_an_hdri_world_is_an_environment_map_written_losslessly(blank, tmp_path)
     f12 = render_f12(blank, tmp_path / "f12.exr")
     cli = volpath.render(volpath.load_file(write_directory(export_scene(depsgraph()), tmp_path / "scene")), seed=5)
     assert np.array_equal(f12, cli)
+    # A non-uniform Scale would bend the map's solid angles (its importance sampling assumes
+    # a rotation): reported, and the rotation alone kept.
+    blank.world.node_tree.nodes["Mapping"].inputs["Scale"].default_value = (1, 2, 1)
+    ex = export_scene(depsgraph())
+    assert any("non-uniform Scale" in w for w in ex.warnings)
+    m = ex.scene["world"]["to_world"][:3, :3]
+    np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-12)
 
 
 def test_f12_noise_threshold_renders_to_the_target_error(blank, tmp_path):
