@@ -24,6 +24,15 @@ struct TriangleMesh {
     // still. Shading normals stay the frame's.
     std::vector<std::vector<Vec3>> motion;
     Real area(size_t i) const;  // (at `positions`)
+    // Texture coordinates at barycentrics (b1, b2) of triangle i (weights of its second and
+    // third corners); without uvs, the barycentrics themselves.
+    Vec2 uv(size_t i, Real b1, Real b2) const {
+        if (uvs.empty()) return {b1, b2};
+        const auto &t = triangles[i];
+        const Vec2 &t0 = uvs[t[0]], &t1 = uvs[t[1]], &t2 = uvs[t[2]];
+        const Real b0 = 1 - b1 - b2;
+        return {t0.x * b0 + t1.x * b1 + t2.x * b2, t0.y * b0 + t1.y * b1 + t2.y * b2};
+    }
     // Triangle i's corners at `time` in the shutter.
     std::array<Vec3, 3> corners(size_t i, Real time) const {
         const auto &t = triangles[i];

@@ -59,9 +59,10 @@ struct AreaLight {
     // A Blender lamp with a radius (a sphere): its spot cone, on the direction light
     // leaves in, and Soft Falloff, which dims it toward receivers near it as Cycles does,
     // by D^2 / (D^2 + r^2) at distance D from its centre: the irradiance of a disc of
-    // radius r that faces the receiver instead of the sphere's (set for spheres:
-    // soft_radius = r).
+    // radius r that faces the receiver instead of the sphere's (prepare_light sets
+    // soft_radius = r where soft_falloff is on).
     SpotCone spot;
+    bool soft_falloff = false;
     Real soft_radius = 0;
     // An emission map (Blender's Emission Color from an image): radiance x texture(uv) on
     // a mesh; its own copy, so that lights need nothing but the geometry. mean_texture: its

@@ -134,15 +134,7 @@ struct Sample {
             p = p0 * (1 - b.x - b.y) + p1 * b.x + p2 * b.y;
             n = normalize(cross(p1 - p0, p2 - p0));
             pdf_area = 1.0 / l.area;
-            if (l.texture) {  // at the point's texture coordinates, as Geometry::uv gives them
-                const Real b0 = 1 - b.x - b.y;
-                Vec2 uv = b;
-                if (!m.uvs.empty()) {
-                    const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
-                    uv = {t0.x * b0 + t1.x * b.x + t2.x * b.y, t0.y * b0 + t1.y * b.x + t2.y * b.y};
-                }
-                tint = eval_texture(*l.texture, uv);
-            }
+            if (l.texture) tint = eval_texture(*l.texture, m.uv(i, b.x, b.y));
         }
         const Vec3 to = p - ref;
         const Real d2 = length_squared(to);
@@ -207,7 +199,7 @@ void prepare_light(Light &light, const Geometry &geometry) {
             const Sphere &s = geometry.spheres[sg.index];
             area->area = 4.0 * kPi * s.radius * s.radius;
             area->center = s.center;
-            if (area->soft_radius > 0) area->soft_radius = s.radius;
+            area->soft_radius = area->soft_falloff ? s.radius : 0;
         } else {
             const TriangleMesh &m = geometry.meshes[sg.index];
             std::vector<Real> areas(m.triangles.size());

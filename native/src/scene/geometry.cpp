@@ -656,10 +656,7 @@ Vec2 Geometry::uv(const Intersection &its) const {
     const Real d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2), det = d11 * d22 - d12 * d12;
     if (!(det > 0)) return m.uvs.empty() ? Vec2{} : m.uvs[tri[0]];
     const Real b1 = (d22 * dot(d, e1) - d12 * dot(d, e2)) / det, b2 = (d11 * dot(d, e2) - d12 * dot(d, e1)) / det;
-    if (m.uvs.empty()) return {b1, b2};
-    const Real b0 = 1 - b1 - b2;
-    const Vec2 &t0 = m.uvs[tri[0]], &t1 = m.uvs[tri[1]], &t2 = m.uvs[tri[2]];
-    return {t0.x * b0 + t1.x * b1 + t2.x * b2, t0.y * b0 + t1.y * b1 + t2.y * b2};
+    return m.uv(its.prim, b1, b2);
 }
 
 void Geometry::uv_tangents(const Intersection &its, Vec3 &dpdu, Vec3 &dpdv) const {

@@ -73,10 +73,11 @@ void Scene::set_light(int i, const Light &l, uint8_t hidden_from) {
 
 Real Scene::light_select_pdf(int light, bool mis, const Vec3 &p) const {
     if (!mis) return lights.empty() ? 0.0 : 1.0 / Real(lights.size());
-    if (is_constant_environment(lights[light]) || light_lights_nothing(light)) return 0.0;
     // One candidate is always chosen (whatever its importance: a single light's images keep
-    // their bits).
-    return context.mis_nee_lights.size() == 1 ? 1.0 : context.nee_sampler.pdf(p, light);
+    // their bits); among several, the sampler knows which are candidates.
+    const std::vector<int> &candidates = context.mis_nee_lights;
+    if (candidates.size() == 1) return candidates[0] == light ? 1.0 : 0.0;
+    return candidates.empty() ? 0.0 : context.nee_sampler.pdf(p, light);
 }
 
 Real Scene::collision_light_select_pdf(int light, bool mis) const {
@@ -111,7 +112,7 @@ AreaLight area_light(const Scene &scene, int shape, const AreaEmission &e) {
     AreaLight light{shape, e.radiance};
     light.twosided = e.twosided, light.spread = e.spread;
     light.spot = e.spot;
-    light.soft_radius = e.soft_falloff ? 1 : 0;  // prepare_light sets the sphere's radius
+    light.soft_falloff = e.soft_falloff;
     if (e.texture >= 0) {
         light.texture = std::make_shared<const Texture>(scene.textures.at(size_t(e.texture)));
         light.mean_texture = mean_luminance(*light.texture);
