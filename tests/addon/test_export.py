@@ -575,6 +575,23 @@ def test_keyframed_lamps_render_in_the_pipeline_as_in_f12(blank, tmp_path):
     assert means[2] > 2 * means[0]  # the lamps really brightened
 
 
+def test_a_keyframed_spot_renders_in_the_pipeline_as_in_f12(blank, tmp_path):
+    """A spot lamp whose power, cone and blend are keyframed is followed frame by frame like
+    a point lamp, updated in place, each frame the bits of a fresh export."""
+    add_camera(blank)
+    bpy.ops.mesh.primitive_plane_add(size=10)
+    bpy.ops.object.light_add(type="SPOT", location=(0, 0, 3))
+    spot = bpy.context.object.data
+    keyframed(spot, "energy", 300, 900)
+    keyframed(spot, "spot_size", math.radians(30), math.radians(90))
+    keyframed(spot, "spot_blend", 0.0, 0.8)
+    anim = tmp_path / "anim"
+    warnings = export_animation(blank, [1, 3, 5], str(anim))
+    assert not any("animated besides" in w for w in warnings)  # animation.json follows it
+    means = pipeline_frames_as_f12(blank, anim, (1, 3, 5), tmp_path)
+    assert means[2] > 2 * means[0]  # a wider, brighter cone
+
+
 def test_an_armature_and_moving_particle_instances_reach_the_video_as_f12_renders_them(blank, tmp_path):
     """A cylinder bent by a keyframed bone, and particles instancing a sphere from an emitter
     keyframed across the floor: named, updated in place (the cylinder's group mesh replaced,
