@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from . import convert
+from . import convert, materials
 
 _DISK_SEGMENTS = 64
 
@@ -59,12 +59,10 @@ def _emission(light, report, name):
     """The colour x strength of the Emission node on a lamp's Light Output (1 without one).
     Its Color may come from a Blackbody node; other nodes driving it are reported and their
     socket's value used."""
-    tree = light.node_tree if getattr(light, "use_nodes", False) else None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputLight"] if tree else []
-    active = [n for n in outputs if n.is_active_output] or outputs
-    if not active or not active[0].inputs["Surface"].is_linked:
+    out = materials.output(light.node_tree if getattr(light, "use_nodes", False) else None, "ShaderNodeOutputLight")
+    node = materials.linked(out, "Surface") if out is not None else None
+    if node is None:
         return np.ones(3)
-    node = active[0].inputs["Surface"].links[0].from_node
     if node.bl_idname != "ShaderNodeEmission":
         report.warn(f"light '{name}': '{node.name}' on its Light Output is not supported (expected Emission)")
         return np.ones(3)

@@ -84,17 +84,19 @@ def _show(v):
     return f"({', '.join(f'{c:.3g}' for c in v[:3])})" if hasattr(v, "__len__") else f"{v:.3g}"
 
 
-def _output(material):
-    tree = material.node_tree
+def output(tree, kind="ShaderNodeOutputMaterial"):
+    """A node tree's active output node of `kind` (a material's, a world's or a lamp's; the
+    first where none is marked active), or None."""
     if tree is None:
         return None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    outputs = [n for n in tree.nodes if n.bl_idname == kind]
     active = [n for n in outputs if n.is_active_output] or outputs
     return active[0] if active else None
 
 
-def _linked(output, socket):
-    s = output.inputs[socket]
+def linked(node, socket):
+    """The node plugged into `node`'s input `socket`, or None."""
+    s = node.inputs[socket]
     return s.links[0].from_node if s.is_linked else None
 
 
@@ -103,11 +105,11 @@ def export(material, report):
     if material is None:
         return Material(DEFAULT_SURFACE, None, None, None)
     owner = f"material '{material.name}'"
-    output = _output(material)
-    if output is None:
+    out = output(material.node_tree)
+    if out is None:
         return Material({"type": "diffuse", "reflectance": convert.rgb(material.diffuse_color[:3])}, None, None, None)
-    surface = _linked(output, "Surface")
-    volume = _linked(output, "Volume")
+    surface = linked(out, "Surface")
+    volume = linked(out, "Volume")
     medium = _volume(volume, owner, report) if volume is not None else None
     images = textures.Images(owner, report)
     if surface is None:

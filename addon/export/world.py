@@ -7,18 +7,13 @@ import math
 
 import numpy as np
 
-from . import convert
+from . import convert, materials
 
 
-def _background(world, report):
-    tree = world.node_tree if world is not None else None
-    if tree is None:
-        return None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld"]
-    active = [n for n in outputs if n.is_active_output] or outputs
-    if not active or not active[0].inputs["Surface"].is_linked:
-        return None
-    return active[0].inputs["Surface"].links[0].from_node
+def _background(world):
+    """The shader on the world's output (None without one)."""
+    out = materials.output(world.node_tree, "ShaderNodeOutputWorld")
+    return materials.linked(out, "Surface") if out is not None else None
 
 
 def export(scene, report, has_sun_lamp):
@@ -26,7 +21,7 @@ def export(scene, report, has_sun_lamp):
     world = scene.world
     if world is None:
         return {}
-    node = _background(world, report)
+    node = _background(world)
     if node is None:
         color = np.array(world.color[:3])
         return {"world": {"type": "constant", "radiance": convert.rgb(color)}} if np.any(color > 0) else {}
